@@ -1,0 +1,1 @@
+"""tmpc.compiler: checked programs -> artifacts (grounding, IR, JAX/SMT/CPZ backends)."""

@@ -1,0 +1,187 @@
+"""Diagnostics: the one shape every user-facing problem takes.
+
+A :class:`Diagnostic` has a code (``E…`` error, ``W…`` warning), a span, a message, an optional
+hint and optional labelled related spans. :func:`render` prints it rustc-style with the source
+line and a caret; :func:`to_json` gives the machine form. The codes are listed in
+``docs/diagnostics.md``.
+
+Exceptions (:class:`TmpcError` and subclasses) carry diagnostics for code paths that must stop.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Iterable, Mapping
+
+from .source import SourceFile, Span
+
+
+class Severity(str, Enum):
+    ERROR = "error"
+    WARNING = "warning"
+    NOTE = "note"
+
+
+@dataclass(frozen=True, slots=True)
+class Related:
+    """A secondary location with a short label (e.g. where a name was first defined)."""
+
+    span: Span
+    label: str
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    code: str
+    severity: Severity
+    message: str
+    span: Span | None
+    hint: str | None = None
+    related: tuple[Related, ...] = ()
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+
+def error(code: str, message: str, span: Span | None, hint: str | None = None,
+          related: Iterable[Related] = ()) -> Diagnostic:
+    return Diagnostic(code, Severity.ERROR, message, span, hint, tuple(related))
+
+
+def warning(code: str, message: str, span: Span | None, hint: str | None = None,
+            related: Iterable[Related] = ()) -> Diagnostic:
+    return Diagnostic(code, Severity.WARNING, message, span, hint, tuple(related))
+
+
+@dataclass
+class DiagnosticSink:
+    """Collects diagnostics in order; deduplicates exact repeats."""
+
+    items: list[Diagnostic] = field(default_factory=list)
+
+    def add(self, diag: Diagnostic) -> None:
+        if diag not in self.items:
+            self.items.append(diag)
+
+    def extend(self, diags: Iterable[Diagnostic]) -> None:
+        for d in diags:
+            self.add(d)
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.is_error for d in self.items)
+
+
+class TmpcError(Exception):
+    """Base of every error a user can cause. Carries diagnostics; the CLI renders them."""
+
+    exit_code = 1
+
+    def __init__(self, diagnostics: Diagnostic | Iterable[Diagnostic]):
+        if isinstance(diagnostics, Diagnostic):
+            diagnostics = [diagnostics]
+        self.diagnostics = list(diagnostics)
+        super().__init__("; ".join(f"[{d.code}] {d.message}" for d in self.diagnostics))
+
+
+class ParseError(TmpcError):
+    """Syntax errors in a source file."""
+
+
+class CheckError(TmpcError):
+    """A program parsed but is not well-formed (names, types, kinds)."""
+
+
+class InputError(TmpcError):
+    """A file cannot be read, or a command-line input is malformed."""
+
+
+# --------------------------------------------------------------------------------------------
+# Rendering
+
+_COLORS = {"error": "\x1b[1;31m", "warning": "\x1b[1;33m", "note": "\x1b[1;36m"}
+_BOLD, _BLUE, _RESET = "\x1b[1m", "\x1b[1;34m", "\x1b[0m"
+
+
+def use_color(stream=sys.stderr) -> bool:
+    if os.environ.get("NO_COLOR"):
+        return False
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
+def _location(diag: Diagnostic, files: Mapping[str, SourceFile]) -> str:
+    if diag.span is None:
+        return ""
+    src = files.get(diag.span.path)
+    if src is None:
+        return f"{diag.span.path}: "
+    line, col = src.line_col(diag.span.start)
+    return f"{diag.span.path}:{line}:{col}: "
+
+
+def _snippet(span: Span, src: SourceFile, label: str, color: bool, mark: str) -> list[str]:
+    line, col = src.line_col(span.start)
+    end_line, end_col = src.line_col(max(span.start, span.end - 1))
+    text = src.line_text(line).replace("\t", " ")
+    width = max(1, (end_col - col + 1) if end_line == line else len(text) - col + 1)
+    gutter = " " * len(str(line))
+    b, r = (_BLUE, _RESET) if color else ("", "")
+    caret = " " * (col - 1) + mark * width + (f" {label}" if label else "")
+    return [f"{gutter} {b}|{r}", f"{b}{line}{r} {b}|{r} {text}", f"{gutter} {b}|{r} {caret}"]
+
+
+def render(diag: Diagnostic, files: Mapping[str, SourceFile], color: bool = False) -> str:
+    """``PATH:LINE:COL: error[CODE]: message`` then the source line, a caret, hint, related."""
+    sev = diag.severity.value
+    head = f"{_COLORS[sev]}{sev}[{diag.code}]{_RESET}" if color else f"{sev}[{diag.code}]"
+    lines = [f"{_location(diag, files)}{head}: {diag.message}"]
+    src = files.get(diag.span.path) if diag.span else None
+    if src is not None and diag.span is not None:
+        lines += _snippet(diag.span, src, "", color, "^")
+    for rel in diag.related:
+        rsrc = files.get(rel.span.path)
+        if rsrc is None:
+            lines.append(f"  = note: {rel.label} ({rel.span.path})")
+            continue
+        rline, rcol = rsrc.line_col(rel.span.start)
+        lines.append(f"  = note: {rel.label} at {rel.span.path}:{rline}:{rcol}")
+        lines += ["  " + s for s in _snippet(rel.span, rsrc, "", color, "-")]
+    if diag.hint:
+        lines.append(f"  = help: {diag.hint}")
+    return "\n".join(lines)
+
+
+def _json_span(span: Span | None, files: Mapping[str, SourceFile]) -> dict | None:
+    if span is None:
+        return None
+    out: dict = {"path": span.path, "start": span.start, "end": span.end}
+    src = files.get(span.path)
+    if src is not None:
+        out["line"], out["column"] = src.line_col(span.start)
+        out["end_line"], out["end_column"] = src.line_col(span.end)
+    return out
+
+
+def to_json(diag: Diagnostic, files: Mapping[str, SourceFile]) -> dict:
+    return {
+        "code": diag.code,
+        "severity": diag.severity.value,
+        "message": diag.message,
+        "span": _json_span(diag.span, files),
+        "hint": diag.hint,
+        "related": [{"label": r.label, "span": _json_span(r.span, files)} for r in diag.related],
+    }
+
+
+def render_json(diags: Iterable[Diagnostic], files: Mapping[str, SourceFile]) -> str:
+    return json.dumps([to_json(d, files) for d in diags], indent=2)
+
+
+def sort_key(diag: Diagnostic) -> tuple:
+    span = diag.span
+    return (span.path, span.start) if span else ("", -1)

@@ -1,0 +1,181 @@
+"""Shared helpers of the level-2 readers (s-expressions -> AST): token classes, typed lists."""
+
+from __future__ import annotations
+
+import difflib
+import re
+from typing import Iterable, Sequence
+
+from . import ast as A
+from .diagnostics import Diagnostic, DiagnosticSink, error, warning
+from .sexpr import SAtom, SExpr, SList
+from .source import Span
+
+NUMBER_RE = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\Z")
+NAME_RE = re.compile(r"[A-Za-z_@][^\s()\";?]*\Z")
+
+
+def is_sym(x: SExpr) -> bool:
+    return isinstance(x, SAtom) and x.kind == "symbol"
+
+
+def sym(x: SExpr | None) -> str | None:
+    """Lower-cased symbol text, or None if ``x`` is not a symbol."""
+    return x.text.lower() if isinstance(x, SAtom) and x.kind == "symbol" else None
+
+
+def head(x: SExpr) -> str | None:
+    """Lower-cased head symbol of a list, or None."""
+    if isinstance(x, SList) and x.items:
+        return sym(x.items[0])
+    return None
+
+
+def is_var(x: SExpr) -> bool:
+    return is_sym(x) and x.text.startswith("?") and len(x.text) > 1
+
+
+def is_number(x: SExpr) -> bool:
+    return is_sym(x) and NUMBER_RE.match(x.text) is not None
+
+
+def is_keyword(x: SExpr) -> bool:
+    return is_sym(x) and x.text.startswith(":")
+
+
+def suggest(word: str, choices: Iterable[str]) -> str | None:
+    """``did you mean `x`?`` text or None."""
+    close = difflib.get_close_matches(word.lower(), list(choices), n=1, cutoff=0.6)
+    return f"did you mean `{close[0]}`?" if close else None
+
+
+def describe(x: SExpr) -> str:
+    if isinstance(x, SList):
+        h = head(x)
+        return f"the list `({h} ...)`" if h else "a list"
+    if x.kind == "string":
+        return f"the string {x.text}"
+    return f"`{x.text}`"
+
+
+class ReaderBase:
+    """Diagnostics plus the small readers every section uses."""
+
+    def __init__(self, sink: DiagnosticSink):
+        self.sink = sink
+
+    def err(self, code: str, msg: str, span: Span | None, hint: str | None = None, **kw) -> None:
+        self.sink.add(error(code, msg, span, hint, **kw))
+
+    def add(self, diag: Diagnostic) -> None:
+        self.sink.add(diag)
+
+    # ---- atoms ---------------------------------------------------------------------------
+    def name(self, x: SExpr, what: str) -> A.Name | None:
+        if is_sym(x) and not is_var(x) and not is_keyword(x):
+            return A.Name(x.text, span=x.span)
+        self.err("E117", f"expected {what}, found {describe(x)}", x.span)
+        return None
+
+    def var(self, x: SExpr, what: str = "a ?variable") -> A.Name | None:
+        if is_var(x):
+            return A.Name(x.text, span=x.span)
+        hint = f"write `?{x.text}`" if is_sym(x) and NAME_RE.match(x.text) else None
+        self.err("E118", f"expected {what}, found {describe(x)}", x.span, hint)
+        return None
+
+    def term(self, x: SExpr) -> A.Term | None:
+        if is_var(x):
+            return A.Var(A.Name(x.text, span=x.span), span=x.span)
+        if is_sym(x) and not is_keyword(x):
+            return A.Const(A.Name(x.text, span=x.span), span=x.span)
+        self.err("E117", f"expected an object name or a ?variable, found {describe(x)}", x.span,
+                 "atom arguments are names or ?variables; nested lists are not terms")
+        return None
+
+    def number(self, x: SExpr) -> A.Num | None:
+        if is_number(x):
+            return A.Num(float(x.text), x.text, span=x.span)
+        self.err("E114", f"expected a number, found {describe(x)}", x.span)
+        return None
+
+    # ---- typed lists -----------------------------------------------------------------------
+    def typed_list(self, items: Sequence[SExpr], variables: bool, what: str) -> tuple[A.Typed, ...]:
+        """``a b - t c - (either t1 t2) d`` (and the legacy glued form ``a b -t``).
+
+        ``variables`` selects ``?x`` entries (parameters) or names (objects, types).
+        """
+        out: list[A.Typed] = []
+        pending: list[A.Name] = []
+        i, n = 0, len(items)
+        while i < n:
+            x = items[i]
+            if is_sym(x) and x.text.startswith("-") and not is_number(x):
+                glued = x.text[1:]
+                if glued:
+                    tref = A.TypeRef((A.Name(glued, span=Span(x.span.path, x.span.start + 1,
+                                                              x.span.end)),), span=x.span)
+                    i += 1
+                elif i + 1 < n and not is_var(items[i + 1]):
+                    tref = self.type_ref(items[i + 1])
+                    i += 2
+                elif i + 1 < n:
+                    self.err("E110", f"`-` in {what} must be followed by a type, found "
+                             f"`{items[i + 1].text}`", x.span.cover(items[i + 1].span),
+                             "write `?x - type`; a ?variable cannot be a type")
+                    i += 1
+                    continue
+                else:
+                    self.err("E110", f"`-` at the end of {what} must be followed by a type",
+                             x.span, "write `?x - type` (or remove the `-`)")
+                    break
+                if not pending:
+                    self.sink.add(warning(
+                        "W009", f"type `{_type_text(tref)}` in {what} follows no name", x.span,
+                        "a type comes after the names it types: `?a ?b - type`"))
+                for nm in pending:
+                    out.append(A.Typed(nm, tref, span=nm.span.cover(x.span)))
+                pending = []
+                continue
+            entry = self._typed_entry(x, variables, what)
+            if entry is not None:
+                pending.append(entry)
+            i += 1
+        out.extend(A.Typed(nm, None, span=nm.span) for nm in pending)
+        return tuple(out)
+
+    def _typed_entry(self, x: SExpr, variables: bool, what: str) -> A.Name | None:
+        if variables:
+            if is_var(x):
+                if "-" in x.text[2:]:
+                    self._glued_dash_hint(x)
+                return A.Name(x.text, span=x.span)
+            return self.var(x, f"a ?variable in {what}")
+        if is_sym(x) and not is_var(x) and not is_keyword(x):
+            return A.Name(x.text, span=x.span)
+        self.err("E117", f"expected a name in {what}, found {describe(x)}", x.span)
+        return None
+
+    def _glued_dash_hint(self, x: SAtom) -> None:
+        """``?x-stick`` is a legal variable name; remember it so the checker can say more."""
+        self.glued_candidates.append(x)
+
+    glued_candidates: list
+
+    def type_ref(self, x: SExpr) -> A.TypeRef:
+        if isinstance(x, SList):
+            if head(x) == "either" and len(x.items) > 1:
+                names = [self.name(t, "a type name") for t in x.items[1:]]
+                return A.TypeRef(tuple(n for n in names if n), span=x.span)
+            self.err("E110", f"expected a type or `(either ...)`, found {describe(x)}", x.span)
+            return A.TypeRef((), span=x.span)
+        nm = self.name(x, "a type name after `-`")
+        if nm is None and is_sym(x) and x.text == "-":
+            return A.TypeRef((), span=x.span)
+        return A.TypeRef((nm,) if nm else (), span=x.span)
+
+
+def _type_text(t: A.TypeRef) -> str:
+    if len(t.names) == 1:
+        return t.names[0].text
+    return "(either " + " ".join(n.text for n in t.names) + ")"

@@ -1,0 +1,295 @@
+"""Level 1 of the parser: text -> s-expression tree with spans, comments and recovery.
+
+The grammar is ``sexpr.lark`` (Lark, LALR, built once per process). Well-formed text takes the
+fast path: one LALR parse with an inline transformer. When the brackets do not balance, the token
+stream is repaired before parsing, guided by indentation (the way people lay out PDDL):
+
+* a missing ``)`` is placed before the first line whose ``(`` is indented no deeper than a list
+  that is still open (a sibling cannot start inside its elder sibling);
+* an extra ``)`` is the last ``)`` before a line indented deeper than its siblings.
+
+Each repair is reported as a diagnostic at the place the user must edit, with the opening bracket
+as a related location, so a file yields all its errors and a usable partial tree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+from lark import Lark, Token
+from lark.exceptions import UnexpectedInput
+
+from .diagnostics import Diagnostic, Related, error
+from .source import SourceFile, Span
+
+
+@dataclass(frozen=True, slots=True)
+class SAtom:
+    """A token: ``kind`` is ``symbol``, ``string`` or ``bad``. ``text`` is as written."""
+
+    text: str
+    kind: str
+    span: Span
+
+    @property
+    def lower(self) -> str:
+        return self.text.lower()
+
+
+@dataclass(frozen=True, slots=True)
+class SList:
+    """A bracketed list. ``close`` is the span of its ``)`` (``None`` when it was missing)."""
+
+    items: tuple["SExpr", ...]
+    span: Span
+    close: Span | None = None
+
+
+SExpr = SAtom | SList
+
+
+@dataclass(frozen=True, slots=True)
+class Comment:
+    text: str
+    span: Span
+
+
+@dataclass
+class SexprDoc:
+    source: SourceFile
+    items: list[SExpr]
+    comments: list[Comment]
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+
+_KIND = {"SYMBOL": "symbol", "STRING": "string", "BADCHAR": "bad"}
+
+
+@lru_cache(maxsize=1)
+def _parser() -> Lark:
+    return Lark.open_from_package("tmpc.lang", "sexpr.lark", parser="lalr", lexer="basic",
+                                  maybe_placeholders=False, cache=True)
+
+
+class _Builder:
+    """Turns Lark tokens into SAtom/SList without an intermediate tree."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def atom(self, tok: Token) -> SAtom:
+        return SAtom(str(tok), _KIND[tok.type], Span(self.path, tok.start_pos, tok.end_pos))
+
+    def items(self, children) -> tuple[SExpr, ...]:
+        out = []
+        for c in children:
+            if isinstance(c, Token):
+                if c.type in _KIND:
+                    out.append(self.atom(c))
+            else:
+                out.append(c)
+        return tuple(out)
+
+    def build(self, tree) -> list[SExpr]:
+        """Iterative conversion (deep nesting must not hit the recursion limit)."""
+        result: dict[int, SExpr] = {}
+        stack = [(tree, False)]
+        while stack:
+            node, done = stack.pop()
+            if not done:
+                stack.append((node, True))
+                stack.extend((c, False) for c in node.children if not isinstance(c, Token))
+                continue
+            kids = []
+            for c in node.children:
+                if isinstance(c, Token):
+                    if c.type in _KIND:
+                        kids.append(self.atom(c))
+                    else:
+                        kids.append(c)
+                else:
+                    kids.append(result.pop(id(c)))
+            if node.data == "list":
+                lpar, rpar = kids[0], kids[-1]
+                inner = tuple(k for k in kids[1:-1])
+                virtual = isinstance(rpar, _VirtualRpar)
+                end = rpar.end_pos if not virtual else (inner[-1].span.end if inner else lpar.end_pos)
+                close = None if virtual else Span(self.path, rpar.start_pos, rpar.end_pos)
+                result[id(node)] = SList(inner, Span(self.path, lpar.start_pos, end), close)
+            else:
+                result[id(node)] = kids  # type: ignore[assignment]
+        return list(result.pop(id(tree)))
+
+
+def _lex(text: str) -> tuple[list[Token], list[Token]]:
+    """All tokens and the comments separately (the lexer never fails: BADCHAR catches `"`)."""
+    tokens, comments = [], []
+    for tok in _parser().lex(text, dont_ignore=True):
+        if tok.type == "COMMENT":
+            comments.append(tok)
+        elif tok.type != "WS":
+            tokens.append(tok)
+    return tokens, comments
+
+
+def parse_sexpr(source: SourceFile) -> SexprDoc:
+    """Parse a whole file. Never raises for bad input: problems become diagnostics."""
+    text, path = source.text, source.path
+    tokens, comment_toks = _lex(text)
+    comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in comment_toks]
+    builder = _Builder(path)
+    try:
+        tree = _parser().parse(text)
+        return SexprDoc(source, builder.build(tree), comments)
+    except UnexpectedInput:
+        pass
+    fixed, diags = _repair(tokens, source)
+    tree = _parse_tokens(fixed)
+    return SexprDoc(source, builder.build(tree), comments, diags)
+
+
+def _parse_tokens(tokens: list[Token]):
+    ip = _parser().parse_interactive("")
+    for tok in tokens:
+        ip.feed_token(tok)
+    return ip.feed_eof()
+
+
+# --------------------------------------------------------------------------------------------
+# Bracket repair
+
+
+@dataclass
+class _Open:
+    tok: Token
+    indent: int            # indentation (0-based column) of the line the list opens on
+    child_col: int | None = None   # column of its first direct child that starts a line
+
+
+def _line_starts(tokens: list[Token]) -> list[bool]:
+    starts, prev_line = [], 0
+    for t in tokens:
+        starts.append(t.line != prev_line)
+        prev_line = t.line
+    return starts
+
+
+def _balance(tokens: list[Token]) -> tuple[int, int]:
+    """(unclosed opens at the end, unmatched closes)."""
+    depth = surplus = 0
+    for t in tokens:
+        if t.type == "LPAR":
+            depth += 1
+        elif t.type == "RPAR":
+            if depth:
+                depth -= 1
+            else:
+                surplus += 1
+    return depth, surplus
+
+
+class _VirtualRpar(Token):
+    """A `)` the repair inserted (it has no place in the text)."""
+
+
+def _virtual_rpar(at: Token) -> Token:
+    return _VirtualRpar("RPAR", ")", at.start_pos, at.line, at.column, at.end_line,
+                        at.end_column, at.start_pos)
+
+
+def _indent_of(tok: Token, line_indent: dict[int, int]) -> int:
+    return line_indent.get(tok.line, tok.column - 1)
+
+
+def _repair(tokens: list[Token], source: SourceFile) -> tuple[list[Token], list[Diagnostic]]:
+    deficit, surplus = _balance(tokens)
+    diags: list[Diagnostic] = []
+    for _ in range(surplus):
+        idx = _find_extra_close(tokens)
+        if idx is None:
+            break
+        diags.append(_extra_close_diag(tokens[idx], source, guessed=True))
+        tokens = tokens[:idx] + tokens[idx + 1:]
+    out: list[Token] = []
+    stack: list[_Open] = []
+    line_indent: dict[int, int] = {}
+    starts = _line_starts(tokens)
+    remaining_deficit = _balance(tokens)[0]
+    for tok, first in zip(tokens, starts):
+        col = tok.column - 1
+        if first:
+            line_indent[tok.line] = col
+            while (remaining_deficit and tok.type == "LPAR" and len(stack) > 1
+                   and stack[-1].indent >= col):
+                opened = stack.pop()
+                out.append(_virtual_rpar(tok))
+                diags.append(_missing_close_diag(opened.tok, out[-2], source))
+                remaining_deficit -= 1
+        if tok.type == "LPAR":
+            stack.append(_Open(tok, _indent_of(tok, line_indent)))
+        elif tok.type == "RPAR":
+            if not stack:
+                diags.append(_extra_close_diag(tok, source, guessed=False))
+                continue
+            stack.pop()
+        out.append(tok)
+    while stack:
+        opened = stack.pop()
+        last = out[-1]
+        out.append(_virtual_rpar(last))
+        diags.append(_missing_close_diag(opened.tok, last, source, at_eof=True))
+    return out, diags
+
+
+def _find_extra_close(tokens: list[Token]) -> int | None:
+    """Index of the `)` that most likely is one too many, by indentation; else the first unmatched.
+
+    A line that starts deeper than the first line-starting child of the innermost open list (or
+    than the first top-level form) right after a `)` means that `)` closed something too early.
+    """
+    root = _Open(Token("LPAR", "("), -1)
+    stack: list[_Open] = [root]
+    line_indent: dict[int, int] = {}
+    prev_close: int | None = None
+    for i, (tok, first) in enumerate(zip(tokens, _line_starts(tokens))):
+        col = tok.column - 1
+        if first:
+            line_indent[tok.line] = col
+            top = stack[-1]
+            if top.child_col is None:
+                top.child_col = col
+            elif col > top.child_col and prev_close is not None and prev_close == i - 1:
+                return prev_close
+        if tok.type == "LPAR":
+            stack.append(_Open(tok, _indent_of(tok, line_indent)))
+        elif tok.type == "RPAR":
+            if len(stack) == 1:
+                return i
+            stack.pop()
+            prev_close = i
+    return None
+
+
+def _extra_close_diag(tok: Token, source: SourceFile, guessed: bool) -> Diagnostic:
+    span = Span(source.path, tok.start_pos, tok.end_pos)
+    if guessed:
+        return error("E002", "unexpected `)`: this closes a list too early",
+                     span, hint="the next line is indented as if it were still inside the list; "
+                     "remove this `)` (or fix the indentation)")
+    return error("E002", "unexpected `)` with no matching `(`", span, hint="remove this `)`")
+
+
+def _missing_close_diag(opener: Token, last: Token, source: SourceFile,
+                        at_eof: bool = False) -> Diagnostic:
+    head = source.text[opener.end_pos:opener.end_pos + 40].split()
+    what = f"`({head[0]}`" if head and "(" not in head[0] else "`(`"
+    what = what.replace(")", "")
+    open_span = Span(source.path, opener.start_pos, opener.end_pos)
+    at = Span(source.path, last.end_pos, last.end_pos + 1) if not at_eof else \
+        Span(source.path, max(0, last.end_pos - 1), last.end_pos)
+    where = "at the end of the file" if at_eof else "here"
+    line, col = source.line_col(opener.start_pos)
+    return error("E001", f"missing `)`: the list {what} opened at {line}:{col} is not closed",
+                 at, hint=f"add `)` {where} to close it",
+                 related=[Related(open_span, "unclosed list opens here")])

@@ -1,0 +1,137 @@
+"""The `tmpc` command line: the composition root.
+
+Each command is a small function registered in :data:`COMMANDS`; argparse's choices come from
+that registry. Commands import what they need lazily so `tmpc check` never loads JAX, Z3, OMPL or
+lupa. Exit codes (DESIGN §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
+plan/sample within limits, 70 internal error (a bug: rerun with --debug and report it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Callable
+
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_NOT_FOUND, EXIT_INTERNAL = 0, 1, 2, 3, 70
+
+
+def _print_diagnostics(diags, files, fmt: str, stream=None) -> None:
+    from tmpc.lang.diagnostics import render, render_json, sort_key, use_color
+    stream = stream or sys.stderr
+    if fmt == "json":
+        sys.stdout.write(render_json(diags, files) + "\n")
+        return
+    color = use_color(stream)
+    for d in sorted(diags, key=sort_key):
+        stream.write(render(d, files, color) + "\n\n")
+
+
+def _summary(diags) -> str:
+    errors = sum(1 for d in diags if d.is_error)
+    warnings = len(diags) - errors
+    parts = []
+    if errors:
+        parts.append(f"{errors} error{'s' if errors != 1 else ''}")
+    if warnings:
+        parts.append(f"{warnings} warning{'s' if warnings != 1 else ''}")
+    return ", ".join(parts)
+
+
+# ---------------------------------------------------------------------------------------------
+# commands
+
+
+def cmd_check(args) -> int:
+    from tmpc.lang.program import check_paths
+    report = check_paths(args.files)
+    _print_diagnostics(report.diagnostics, report.workspace.files, args.format)
+    if args.format != "json":
+        summary = _summary(report.diagnostics)
+        names = ", ".join(_program_name(p) for p in report.programs)
+        if report.ok:
+            sys.stderr.write(f"ok: {names or 'no programs'}" + (f" ({summary})" if summary else "")
+                             + "\n")
+        else:
+            sys.stderr.write(f"check failed: {summary}\n")
+    return EXIT_OK if report.ok else EXIT_ERROR
+
+
+def _program_name(p) -> str:
+    name = f"domain {p.domain.name.text}" if p.domain.form == "domain" else \
+        f"module {p.domain.name.text}"
+    return name + (f" + problem {p.problem.name.text}" if p.problem else "")
+
+
+def cmd_fmt(args) -> int:
+    from tmpc.runtime.fmt_command import run_fmt
+    return run_fmt(args.files, check=args.check, fmt=args.format, print_diags=_print_diagnostics)
+
+
+COMMANDS: dict[str, tuple[Callable, str]] = {
+    "check": (cmd_check, "parse and check PDDL domains, problems and tmpc modules"),
+    "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tmpc", description="tmpc: task and motion planning compiler and interpreter")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    parser.add_argument("--version", action="version", version=f"tmpc {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name, (_, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        _configure(name, p)
+    return parser
+
+
+def _configure(name: str, p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="diagnostics as text (default) or JSON on stdout")
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="show tracebacks of internal errors")
+    if name == "check":
+        p.add_argument("files", nargs="+", metavar="FILE", help="domain/problem/module files")
+    elif name == "fmt":
+        p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
+        p.add_argument("--check", action="store_true",
+                       help="change nothing; exit 1 if a file would be reformatted")
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("tmpc")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from tmpc.lang.diagnostics import TmpcError
+    try:
+        return COMMANDS[args.command][0](args)
+    except TmpcError as exc:
+        _print_diagnostics(exc.diagnostics, getattr(exc, "files", {}), getattr(args, "format",
+                                                                                "text"))
+        return exc.exit_code
+    except KeyboardInterrupt:
+        sys.stderr.write("interrupted\n")
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception:
+        if args.debug:
+            raise
+        import traceback
+        last = traceback.extract_tb(sys.exc_info()[2])[-1]
+        sys.stderr.write(f"internal error: {sys.exc_info()[1]!r} at {last.filename}:{last.lineno}\n"
+                         "this is a bug in tmpc; rerun with --debug for the traceback and report "
+                         "it\n")
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())
