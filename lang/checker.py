@@ -76,6 +76,7 @@ class Checker:
         self.declare_functions(d)
         for h in d.defines:
             self._declare_unique(self.scope.helpers, h.name, h, "helper")
+        self.warn_shadowing(d)
         for der in d.derived:
             self.check_derived(der)
         for h in d.defines:
@@ -98,9 +99,16 @@ class Checker:
 
     def declare_module(self, m: A.Domain) -> None:
         for h in m.defines:
-            self.scope.helpers.setdefault(h.name.key, h)
-        for p in m.predicates:
-            self.scope.predicates.setdefault(p.name.key, p)
+            self.scope.module_helpers.setdefault(h.name.key, h)
+
+    def warn_shadowing(self, d: A.Domain) -> None:
+        for item in (*d.defines, *d.predicates):
+            inc = self.scope.module_helpers.get(item.name.key)
+            if inc is not None:
+                self.sink.add(warning("W016", f"`{item.name.text}` shadows the helper of the same "
+                                      f"name from an included module", item.name.span,
+                                      "rename it to use the included helper",
+                                      related=[Related(inc.name.span, "the included helper")]))
 
     def _declare_unique(self, table: dict, name: A.Name, value, what: str) -> bool:
         prev = table.get(name.key)

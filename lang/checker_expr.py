@@ -136,8 +136,7 @@ class ExprChecker:
         if isinstance(e, A.Call):
             if e.op.key in K.STATE_ACCESSORS:
                 return False
-            helper = self.scope.helpers.get(e.op.key)
-            if helper is not None:
+            if self.scope.helper(e.op.key) is not None:
                 return False   # conservative: helpers may read state
             if e.op.key in self.scope.predicates:
                 return False
@@ -159,7 +158,7 @@ class ExprChecker:
             if any(a is None for a in args):
                 return None
             return self.overload(e, K.BUILTINS[op], args)
-        helper = self.scope.helpers.get(op)
+        helper = self.scope.helper(op)
         if helper is not None:
             args = [self.expr(a, env) for a in e.args]
             if len(args) != len(helper.params):
@@ -174,7 +173,7 @@ class ExprChecker:
         if pred is not None:
             return self.predicate_call(e, pred, env)
         self.err("E301", f"unknown operator `{e.op.text}`", e.op.span,
-                 suggest(op, list(K.BUILTINS) + list(self.scope.helpers)) or
+                 suggest(op, [*K.BUILTINS, *self.scope.helpers, *self.scope.module_helpers]) or
                  "see docs/language.md for the built-in operators; helpers come from `:define`")
         return None
 

@@ -59,17 +59,22 @@ class Formatter:
         out = "\n".join(ln.render() for ln in lines).strip("\n")
         return out + "\n" if out else ""
 
-    def children(self, groups, first_line_end, start: int, end: int, indent: int) -> list[_Line]:
-        """Lines of ``groups`` (one per line at ``indent``) with their comments and blank lines."""
+    def children(self, groups, first_line_end, start: int, end: int, indent: int,
+                 trail: int = 0) -> list[_Line]:
+        """Lines of ``groups`` (one per line at ``indent``) with their comments and blank lines.
+
+        ``trail``: closing brackets the parent appends to the last line (counted in the width).
+        """
         lines: list[_Line] = []
-        for kind, payload, blank in self._entries(groups, first_line_end, start, end):
+        entries = self._entries(groups, first_line_end, start, end)
+        for k, (kind, payload, blank) in enumerate(entries):
             if blank and lines:
                 lines.append(_Line(0, ""))
             if kind == "comment":
                 lines.append(_Line(indent, "", payload.text.rstrip()))
                 continue
             group, trailing = payload
-            sub = self.node_group(group, indent)
+            sub = self.node_group(group, indent, trail if k == len(entries) - 1 else 0)
             if trailing is not None:
                 sub[-1].comment = trailing.text.rstrip()
             lines += sub
@@ -117,50 +122,92 @@ class Formatter:
         return bool(out) and self.text.count("\n", a, b) >= 2
 
     # ---- nodes -----------------------------------------------------------------------------
-    def node_group(self, group, indent: int) -> list[_Line]:
+    def node_group(self, group, indent: int, trail: int = 0) -> list[_Line]:
         """A node, a `:key value` pair or a typed group, starting a line at ``indent``."""
         if not isinstance(group, tuple):
-            return self.node(group, indent, indent)
+            return self.node(group, indent, indent, trail)
         flat = [self.flat(n) for n in group]
-        if all(f is not None for f in flat) and indent + sum(len(f) + 1 for f in flat) - 1 <= WIDTH:
+        if all(f is not None for f in flat) and \
+                indent + sum(len(f) + 1 for f in flat) - 1 + trail <= WIDTH:
             return [_Line(indent, " ".join(flat))]
         if any(f is None for f in flat[:-1]):
-            return [ln for n in group for ln in self.node(n, indent, indent)]
+            return [ln for i, n in enumerate(group)
+                    for ln in self.node(n, indent, indent, trail if i == len(group) - 1 else 0)]
         lead = " ".join(flat[:-1])
-        rest = self.node(group[-1], indent + len(lead) + 1, indent)
+        rest = self.node(group[-1], indent + len(lead) + 1, indent, trail)
         rest[0] = _Line(indent, lead + " " + rest[0].code, rest[0].comment)
         return rest
 
-    def node(self, x: SExpr, col: int, indent: int) -> list[_Line]:
+    def node(self, x: SExpr, col: int, indent: int, trail: int = 0) -> list[_Line]:
         if isinstance(x, SAtom):
             return [_Line(indent, self.atom_text(x, head_pos=False))]
         flat = self.flat(x)
-        if flat is not None and col + len(flat) <= WIDTH and head(x) not in ALWAYS_BREAK:
+        if flat is not None and col + len(flat) + trail <= WIDTH and head(x) not in ALWAYS_BREAK:
             return [_Line(indent, flat)]
-        return self.broken(x, indent)
+        return self.broken(x, col, indent, trail)
 
-    def broken(self, x: SList, indent: int) -> list[_Line]:
+    def broken(self, x: SList, col: int, indent: int, trail: int = 0) -> list[_Line]:
+        """``x`` over several lines; it starts at column ``col``, its children at indent + 2."""
         h = head(x)
         items = list(x.items)
-        n_head = 1 + HEADER.get(h or "", 0) if items and isinstance(items[0], SAtom) else 0
-        header = [self.flat(it) for it in items[:n_head]]
-        if any(f is None for f in header) or (n_head and self._comments_between(
-                x.span.start, items[n_head - 1].span.end)):
-            n_head, header = 0, []
+        n_head = self._header_size(x, h)
+        header = [self.atom_text(it, head_pos=True) if i == 0 and isinstance(it, SAtom)
+                  else self.flat(it) for i, it in enumerate(items[:n_head])]
         first_end = items[n_head - 1].span.end if n_head else x.span.start + 1
         end = x.close.start if x.close else x.span.end
-        body = self.children(self.group(items[n_head:], h), first_end, first_end, end,
-                             indent + INDENT)
+        groups = self.group(items[n_head:], h)
+        if n_head and len(groups) == 1 and isinstance(groups[0], SList) and (h or "")[:1] == ":" \
+                and h not in ALWAYS_BREAK and not self._comments_between(first_end, end):
+            # a section's single child hangs on the opening line: `(:goal (and` ... `))`
+            lead = "(" + " ".join(header) + " "
+            lines = self.node(groups[0], col + len(lead), indent, trail + 1)
+            if col + len(lead) + len(lines[0].code) <= WIDTH:
+                lines[0] = _Line(indent, lead + lines[0].code, lines[0].comment)
+                lines[-1].code += ")"
+                return lines
+        if groups and all(isinstance(g, SAtom) for g in groups) and \
+                not self._comments_between(first_end, end):
+            return self.filled(header, groups, indent, trail)
+        body = self.children(groups, first_end, first_end, end, indent + INDENT, trail + 1)
         lines = [_Line(indent, "(" + " ".join(header))]
         # a comment on the opening line trails it
         if body and body[0].code == "" and body[0].comment is not None and \
                 self._line(first_end) == self._comment_line(body[0]):
             lines[0].comment = body.pop(0).comment
         lines += body
-        if lines[-1].comment is not None and not lines[-1].code:
+        if lines[-1].comment is not None and len(lines) > 1:
+            # a comment inside the list ends the last line: `)` goes below it, so the comment
+            # stays inside the list and a second `fmt` changes nothing
             lines.append(_Line(indent, ")"))
         else:
             lines[-1].code += ")"
+        return lines
+
+    def _header_size(self, x: SList, h: str | None) -> int:
+        """Items kept on the opening line: the head and HEADER[h] more, but none after a comment
+        and none that is itself multi-line. Parameter lists (`(?x - t ...)`) have no header."""
+        items = x.items
+        if not items or not isinstance(items[0], SAtom) or (h or "").startswith("?"):
+            return 0
+        n = 1 + HEADER.get(h or "", 0)
+        for i, it in enumerate(items[:n]):
+            if self.flat(it) is None or self._comments_between(x.span.start, it.span.end):
+                return i
+        return min(n, len(items))
+
+    def filled(self, header: list[str], atoms: list[SAtom], indent: int, trail: int):
+        """Only atoms after the header: as many per line as fit (`:requirements`, long lists)."""
+        lines = [_Line(indent, "(" + " ".join(header))]
+        cur = _Line(indent + INDENT, "")
+        for i, a in enumerate(atoms):
+            word = self.atom_text(a, head_pos=False)
+            extra = trail + 1 if i == len(atoms) - 1 else 0
+            if cur.code and cur.indent + len(cur.code) + 1 + len(word) + extra > WIDTH:
+                lines.append(cur)
+                cur = _Line(indent + INDENT, "")
+            cur.code = f"{cur.code} {word}" if cur.code else word
+        lines.append(cur)
+        lines[-1].code += ")"
         return lines
 
     def _comment_line(self, line: _Line) -> int:
@@ -171,7 +218,7 @@ class Formatter:
 
     def group(self, items: list[SExpr], h: str | None) -> list:
         """Keep `:key value` pairs and typed groups together as tuples."""
-        if h in TYPED_SECTIONS:
+        if h in TYPED_SECTIONS or (h or "").startswith("?"):
             return [run for g in _typed_groups(items) for run in self._split_at_comments(g)]
         out: list = []
         i = 0

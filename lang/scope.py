@@ -91,6 +91,16 @@ class Scope:
     derived: dict[str, list[A.Derived]] = field(default_factory=dict)
     functions: dict[str, A.FunctionDecl] = field(default_factory=dict)
     helpers: dict[str, A.DefineDecl] = field(default_factory=dict)
+    #: helpers of included modules; local helpers and predicates shadow them
+    module_helpers: dict[str, A.DefineDecl] = field(default_factory=dict)
+
+    def helper(self, key: str) -> A.DefineDecl | None:
+        """A local helper, else an included one unless a local predicate shadows it."""
+        if key in self.helpers:
+            return self.helpers[key]
+        if key in self.predicates and self.predicates[key].span is not None:
+            return None
+        return self.module_helpers.get(key)
     actions: dict[str, A.Action] = field(default_factory=dict)
 
     def compatible(self, actual: tuple[str, ...], expected: tuple[str, ...]) -> bool:

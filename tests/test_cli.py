@@ -1,0 +1,69 @@
+"""The CLI contract: exit codes, rendering, JSON, no tracebacks, no heavy imports in `check`."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from conftest import EXAMPLES
+
+CLUTTER = [str(EXAMPLES / "clutter" / "domain.pddl"), str(EXAMPLES / "clutter" / "problem.pddl")]
+
+
+def run(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *args], capture_output=True,
+                          text=True, **kw)
+
+
+def test_check_clean_example():
+    r = run("check", *CLUTTER)
+    assert r.returncode == 0, r.stderr
+    assert "ok: domain clutter + problem clutter-1" in r.stderr
+
+
+def test_check_reports_rustc_style_and_exits_1(tmp_path):
+    f = tmp_path / "bad.pddl"
+    f.write_text("(define (domain d)\n  (:requirements :stripps)\n  (:predicates (p)))\n")
+    r = run("check", str(f))
+    assert r.returncode == 1
+    assert f"{f}:2:18: error[E115]: unknown requirement `:stripps`" in r.stderr
+    assert "2 |   (:requirements :stripps)" in r.stderr
+    assert "^^^^^^^^" in r.stderr and "did you mean `:strips`?" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_check_json_format(tmp_path):
+    f = tmp_path / "bad.pddl"
+    f.write_text("(define (domain d) (:predicates (p))\n  (:action a :effect (q)))\n")
+    r = run("check", "--format", "json", str(f))
+    assert r.returncode == 1
+    (d,) = json.loads(r.stdout)
+    assert (d["code"], d["severity"], d["span"]["line"], d["span"]["column"]) == \
+        ("E200", "error", 2, 23)
+
+
+def test_missing_file_and_usage_errors(tmp_path):
+    r = run("check", str(tmp_path / "nope.pddl"))
+    assert r.returncode == 1 and "no such file" in r.stderr and "Traceback" not in r.stderr
+    assert run("check").returncode == 2
+    assert run("frobnicate").returncode == 2
+    binary = tmp_path / "bin.pddl"
+    binary.write_bytes(b"\xff\xfe\x00(")
+    r = run("check", str(binary))
+    assert r.returncode == 1 and "UTF-8" in r.stderr
+
+
+def test_check_imports_nothing_heavy():
+    code = ("import sys; from tmpc.runtime.cli import main; rc = main(['check', %r, %r]); "
+            "heavy = [m for m in ('jax', 'z3', 'ompl', 'lupa', 'numpy', 'fcl', 'trimesh') "
+            "if m in sys.modules]; print(heavy); sys.exit(rc)") % tuple(CLUTTER)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"
+
+
+def test_problem_alone_finds_its_domain_beside_it():
+    r = run("check", CLUTTER[1])
+    assert r.returncode == 0, r.stderr
+    assert "W011" in r.stderr

@@ -1,0 +1,110 @@
+"""Level 1: s-expressions, spans, comments, bracket repair."""
+
+from __future__ import annotations
+
+import pytest
+
+from tmpc.lang.sexpr import SAtom, SList, parse_sexpr
+from tmpc.lang.source import SourceFile
+
+
+def parse(text: str):
+    return parse_sexpr(SourceFile("t.pddl", text))
+
+
+def loc(doc, diag):
+    return doc.source.line_col(diag.span.start)
+
+
+def test_atoms_lists_spans_and_comments():
+    doc = parse('(a ?b :c "s" -1.5e3) ; tail\n; full line\n(x)')
+    assert not doc.diagnostics
+    first = doc.items[0]
+    assert isinstance(first, SList)
+    assert [a.text for a in first.items] == ["a", "?b", ":c", '"s"', "-1.5e3"]
+    assert [a.kind for a in first.items] == ["symbol"] * 3 + ["string", "symbol"]
+    assert doc.source.text[first.span.start:first.span.end] == '(a ?b :c "s" -1.5e3)'
+    assert first.close is not None and doc.source.text[first.close.start] == ")"
+    assert [c.text for c in doc.comments] == ["; tail", "; full line"]
+    assert doc.source.line_col(doc.items[1].span.start) == (3, 1)
+
+
+def test_crlf_tabs_and_bom_are_whitespace(tmp_path):
+    p = tmp_path / "f.pddl"
+    p.write_bytes(b"\xef\xbb\xbf(define\r\n\t(domain d))\r\n")
+    doc = parse_sexpr(SourceFile.read(p))
+    assert not doc.diagnostics
+    assert doc.items[0].items[1].items[1].text == "d"
+
+
+def test_missing_paren_is_reported_where_it_belongs():
+    text = ("(define (domain d)\n"
+            "  (:action a\n"
+            "    :parameters ()\n"
+            "    :effect (and (p))\n"          # `)` of the action missing here
+            "  (:action b\n"
+            "    :parameters ()\n"
+            "    :effect (and (p))))\n")
+    doc = parse(text)
+    assert [d.code for d in doc.diagnostics] == ["E001"]
+    d = doc.diagnostics[0]
+    assert loc(doc, d) == (4, 22)                       # right after `(and (p))`
+    assert doc.source.line_col(d.related[0].span.start) == (2, 3)   # the unclosed `(:action`
+    # recovery: both actions are siblings inside define again
+    define = doc.items[0]
+    assert [it.items[1].text for it in define.items[2:]] == ["a", "b"]
+
+
+def test_missing_paren_at_end_of_file():
+    doc = parse("(define (domain d)\n  (:predicates (p))\n")
+    assert [d.code for d in doc.diagnostics] == ["E001"]
+    assert "end of the file" in doc.diagnostics[0].hint
+    assert len(doc.items) == 1
+
+
+def test_extra_paren_found_by_indentation():
+    text = ("(define (domain d)\n"
+            "  (:action a\n"
+            "    :precondition (p))\n"        # extra `)` closes the action early
+            "    :effect (q))\n"
+            "  (:action b :effect (q)))\n")
+    doc = parse(text)
+    assert [d.code for d in doc.diagnostics] == ["E002"]
+    assert loc(doc, doc.diagnostics[0]) == (3, 22)
+    define = doc.items[0]
+    assert [it.items[1].text for it in define.items[2:]] == ["a", "b"]
+
+
+def test_unmatched_close_at_top_level():
+    doc = parse("(a))")
+    assert [d.code for d in doc.diagnostics] == ["E002"]
+    assert loc(doc, doc.diagnostics[0]) == (1, 4)
+
+
+def test_unterminated_string_is_a_bad_token():
+    doc = parse('(a "oops)\n')
+    kinds = [it.kind for it in doc.items[0].items if isinstance(it, SAtom)]
+    assert "bad" in kinds
+
+
+def test_deep_nesting_does_not_hit_recursion_limit():
+    depth = 5000
+    doc = parse("(" * depth + "x" + ")" * depth)
+    assert not doc.diagnostics
+    node, n = doc.items[0], 1
+    while isinstance(node, SList) and node.items and isinstance(node.items[0], SList):
+        node, n = node.items[0], n + 1
+    assert n == depth
+
+
+@pytest.mark.parametrize("text", ["", "   \n", "; only a comment\n"])
+def test_empty_inputs(text):
+    doc = parse(text)
+    assert doc.items == [] and not doc.diagnostics
+
+
+def test_lsp_positions_are_zero_based():
+    src = SourceFile("t", "ab\ncd")
+    assert src.line_col(3) == (2, 1)
+    assert src.lsp_position(3) == (1, 0)
+    assert src.offset(2, 2) == 4
