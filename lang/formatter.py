@@ -150,7 +150,7 @@ class Formatter:
         """``x`` over several lines; it starts at column ``col``, its children at indent + 2."""
         h = head(x)
         items = list(x.items)
-        n_head = self._header_size(x, h)
+        n_head = self._header_size(x, h, col)
         header = [self.atom_text(it, head_pos=True) if i == 0 and isinstance(it, SAtom)
                   else self.flat(it) for i, it in enumerate(items[:n_head])]
         first_end = items[n_head - 1].span.end if n_head else x.span.start + 1
@@ -161,7 +161,10 @@ class Formatter:
             # a section's single child hangs on the opening line: `(:goal (and` ... `))`
             lead = "(" + " ".join(header) + " "
             lines = self.node(groups[0], col + len(lead), indent, trail + 1)
-            if col + len(lead) + len(lines[0].code) <= WIDTH:
+            # multi-line children hang only in sections without a header (`:goal`); a helper's
+            # body (`:define (sig) body`) hangs only when it fits on the line.
+            if col + len(lead) + len(lines[0].code) <= WIDTH and \
+                    (len(lines) == 1 or not HEADER.get(h or "", 0)):
                 lines[0] = _Line(indent, lead + lines[0].code, lines[0].comment)
                 lines[-1].code += ")"
                 return lines
@@ -183,15 +186,19 @@ class Formatter:
             lines[-1].code += ")"
         return lines
 
-    def _header_size(self, x: SList, h: str | None) -> int:
-        """Items kept on the opening line: the head and HEADER[h] more, but none after a comment
-        and none that is itself multi-line. Parameter lists (`(?x - t ...)`) have no header."""
+    def _header_size(self, x: SList, h: str | None, col: int) -> int:
+        """Items kept on the opening line: the head and HEADER[h] more, but none after a comment,
+        none that is multi-line and none past the width. Parameter lists have no header."""
         items = x.items
         if not items or not isinstance(items[0], SAtom) or (h or "").startswith("?"):
             return 0
         n = 1 + HEADER.get(h or "", 0)
+        width = col + 1
         for i, it in enumerate(items[:n]):
-            if self.flat(it) is None or self._comments_between(x.span.start, it.span.end):
+            f = self.flat(it)
+            width += (len(f) + 1) if f is not None else 0
+            if f is None or self._comments_between(x.span.start, it.span.end) or \
+                    (i and width > WIDTH):
                 return i
         return min(n, len(items))
 

@@ -66,10 +66,20 @@ class SexprDoc:
 _KIND = {"SYMBOL": "symbol", "STRING": "string", "BADCHAR": "bad"}
 
 
+#: Comments seen by the lexer during the current parse (the lexer callback appends here).
+_comment_sink: list[Token] = []
+
+
+def _collect_comment(tok: Token) -> Token:
+    _comment_sink.append(tok)
+    return tok
+
+
 @lru_cache(maxsize=1)
 def _parser() -> Lark:
     return Lark.open_from_package("tmpc.lang", "sexpr.lark", parser="lalr", lexer="basic",
-                                  maybe_placeholders=False, cache=True)
+                                  maybe_placeholders=False, cache=True,
+                                  lexer_callbacks={"COMMENT": _collect_comment})
 
 
 class _Builder:
@@ -136,14 +146,18 @@ def _lex(text: str) -> tuple[list[Token], list[Token]]:
 def parse_sexpr(source: SourceFile) -> SexprDoc:
     """Parse a whole file. Never raises for bad input: problems become diagnostics."""
     text, path = source.text, source.path
-    tokens, comment_toks = _lex(text)
-    comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in comment_toks]
     builder = _Builder(path)
+    _comment_sink.clear()
     try:
-        tree = _parser().parse(text)
+        tree = _parser().parse(text)      # the fast path: one pass, comments via the callback
+        comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in _comment_sink]
         return SexprDoc(source, builder.build(tree), comments)
     except UnexpectedInput:
         pass
+    finally:
+        _comment_sink.clear()
+    tokens, comment_toks = _lex(text)
+    comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in comment_toks]
     fixed, diags = _repair(tokens, source)
     tree = _parse_tokens(fixed)
     return SexprDoc(source, builder.build(tree), comments, diags)

@@ -2,19 +2,16 @@
 ; predicates carry their meaning inline; `holding` re-parents the stick under the gripper.
 (define (domain clutter)
   (:requirements :strips :typing :tmpc)
-  (:types
-    stick surface manipulator - object)
+  (:types stick surface manipulator - object)
   (:include "tmpc/geometry")
   (:predicates
     (on-surface ?x - stick ?s - surface)
     (arm-empty ?m - manipulator)
     (holding ?m - manipulator ?x - stick :kinematic (link ?m ?x))
     ; the gripper's tool frame is close enough to grasp the stick
-    (at ?m - manipulator ?x - stick
-      :semantics (near ?m ?x 0.05))
+    (at ?m - manipulator ?x - stick :semantics (near ?m ?x 0.05))
     ; the gripper is over the table's support region, at most 30 cm above it
-    (above ?m - manipulator ?s - surface
-      :semantics (over-support ?m ?s 0.3)))
+    (above ?m - manipulator ?s - surface :semantics (over-support ?m ?s 0.3)))
   (:action pickup
     :parameters (?x - stick ?s - surface ?m - manipulator)
     :precondition (and (on-surface ?x ?s) (arm-empty ?m) (at ?m ?x))
