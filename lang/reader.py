@@ -56,7 +56,7 @@ def _legacy_tolerated(d: Diagnostic) -> Diagnostic:
     legacy-dialect file an extra `)` is a warning (the repaired tree is what they meant)."""
     if d.code != "E002":
         return d
-    return warning("W002", d.message + " (tolerated in a legacy planet/tmit-star file)", d.span,
+    return warning("W017", d.message + " (tolerated in a legacy planet/tmit-star file)", d.span,
                    d.hint, d.related)
 
 
@@ -73,10 +73,6 @@ class Reader(FormulaReader):
     def read(self, doc: SexprDoc) -> list[A.Domain | A.Problem]:
         out = []
         for item in doc.items:
-            if isinstance(item, SAtom) and item.kind == "bad":
-                self.err("E003", "unterminated string (a `\"` without its closing `\"` on the "
-                         "same line)", item.span)
-                continue
             if head(item) == "in-package":
                 continue  # PDDL 1.2 files start with a Lisp `(in-package ...)`: nothing to read
             if head(item) == "define":
@@ -106,15 +102,9 @@ class Reader(FormulaReader):
                          what.span, suggest(what.text if is_sym(what) else "",
                                             ("domain", "problem", "module")))
             return None
-        self._bad_atoms(x.items[2:])
         if kind == "problem":
             return self.problem(name, x)
         return self.domain(name, x, kind)
-
-    def _bad_atoms(self, items) -> None:
-        for it in items:
-            if isinstance(it, SAtom) and it.kind == "bad":
-                self.err("E003", "unterminated string", it.span)
 
     def _sections(self, x: SList, allowed: tuple[str, ...], other: frozenset, what: str):
         """Yield (keyword, section list) for each well-formed section; report the rest."""

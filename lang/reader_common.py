@@ -130,8 +130,11 @@ class ReaderBase:
                              x.span, "write `?x - type` (or remove the `-`)")
                     break
                 if not pending:
-                    self.sink.add(warning(
-                        "W009", f"type `{_type_text(tref)}` in {what} follows no name", x.span,
+                    # In parameter lists this is a real mistake (the names after it stay untyped);
+                    # in object lists IPC files have it harmlessly (woodworking `- board`).
+                    self.sink.add((error if variables else warning)(
+                        "E110" if variables else "W009",
+                        f"type `{_type_text(tref)}` in {what} follows no name", x.span,
                         "a type comes after the names it types: `?a ?b - type`"))
                 for nm in pending:
                     out.append(A.Typed(nm, tref, span=nm.span.cover(x.span)))

@@ -26,7 +26,7 @@ from .source import SourceFile, Span
 
 @dataclass(frozen=True, slots=True)
 class SAtom:
-    """A token: ``kind`` is ``symbol``, ``string`` or ``bad``. ``text`` is as written."""
+    """A token: ``kind`` is ``symbol`` or ``string``. ``text`` is as written."""
 
     text: str
     kind: str
@@ -63,7 +63,7 @@ class SexprDoc:
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
 
-_KIND = {"SYMBOL": "symbol", "STRING": "string", "BADCHAR": "bad"}
+_KIND = {"SYMBOL": "symbol", "STRING": "string"}
 
 
 #: Comments seen by the lexer during the current parse (the lexer callback appends here).
@@ -87,19 +87,15 @@ class _Builder:
 
     def __init__(self, path: str):
         self.path = path
+        self.bad: list[Diagnostic] = []
+
+    def bad_token(self, tok: Token) -> None:
+        self.bad.append(error("E003", "unterminated string: this `\"` has no closing `\"` on its "
+                              "line", Span(self.path, tok.start_pos, tok.end_pos),
+                              "close the string, or remove the quote"))
 
     def atom(self, tok: Token) -> SAtom:
         return SAtom(str(tok), _KIND[tok.type], Span(self.path, tok.start_pos, tok.end_pos))
-
-    def items(self, children) -> tuple[SExpr, ...]:
-        out = []
-        for c in children:
-            if isinstance(c, Token):
-                if c.type in _KIND:
-                    out.append(self.atom(c))
-            else:
-                out.append(c)
-        return tuple(out)
 
     def build(self, tree) -> list[SExpr]:
         """Iterative conversion (deep nesting must not hit the recursion limit)."""
@@ -114,7 +110,9 @@ class _Builder:
             kids = []
             for c in node.children:
                 if isinstance(c, Token):
-                    if c.type in _KIND:
+                    if c.type == "BADCHAR":
+                        self.bad_token(c)
+                    elif c.type in _KIND:
                         kids.append(self.atom(c))
                     else:
                         kids.append(c)
@@ -151,7 +149,7 @@ def parse_sexpr(source: SourceFile) -> SexprDoc:
     try:
         tree = _parser().parse(text)      # the fast path: one pass, comments via the callback
         comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in _comment_sink]
-        return SexprDoc(source, builder.build(tree), comments)
+        return SexprDoc(source, builder.build(tree), comments, builder.bad)
     except UnexpectedInput:
         pass
     finally:
@@ -160,7 +158,8 @@ def parse_sexpr(source: SourceFile) -> SexprDoc:
     comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in comment_toks]
     fixed, diags = _repair(tokens, source)
     tree = _parse_tokens(fixed)
-    return SexprDoc(source, builder.build(tree), comments, diags)
+    items = builder.build(tree)
+    return SexprDoc(source, items, comments, diags + builder.bad)
 
 
 def _parse_tokens(tokens: list[Token]):
@@ -234,7 +233,8 @@ def _repair(tokens: list[Token], source: SourceFile) -> tuple[list[Token], list[
         col = tok.column - 1
         if first:
             line_indent[tok.line] = col
-            while (remaining_deficit and tok.type == "LPAR" and len(stack) > 1
+            starts_item = tok.type == "LPAR" or (tok.type == "SYMBOL" and tok.startswith(":"))
+            while (remaining_deficit and starts_item and len(stack) > 1
                    and stack[-1].indent >= col):
                 opened = stack.pop()
                 out.append(_virtual_rpar(tok))
@@ -300,8 +300,8 @@ def _missing_close_diag(opener: Token, last: Token, source: SourceFile,
     what = f"`({head[0]}`" if head and "(" not in head[0] else "`(`"
     what = what.replace(")", "")
     open_span = Span(source.path, opener.start_pos, opener.end_pos)
-    at = Span(source.path, last.end_pos, last.end_pos + 1) if not at_eof else \
-        Span(source.path, max(0, last.end_pos - 1), last.end_pos)
+    # right after the last token (a zero-width span at the very end of the file)
+    at = Span(source.path, last.end_pos, min(last.end_pos + 1, len(source.text)))
     where = "at the end of the file" if at_eof else "here"
     line, col = source.line_col(opener.start_pos)
     return error("E001", f"missing `)`: the list {what} opened at {line}:{col} is not closed",

@@ -81,10 +81,11 @@ def test_unmatched_close_at_top_level():
     assert loc(doc, doc.diagnostics[0]) == (1, 4)
 
 
-def test_unterminated_string_is_a_bad_token():
+def test_unterminated_string_is_reported_and_dropped():
     doc = parse('(a "oops)\n')
-    kinds = [it.kind for it in doc.items[0].items if isinstance(it, SAtom)]
-    assert "bad" in kinds
+    assert [d.code for d in doc.diagnostics] == ["E003"]
+    assert loc(doc, doc.diagnostics[0]) == (1, 4)
+    assert [it.text for it in doc.items[0].items] == ["a", "oops"]
 
 
 def test_deep_nesting_does_not_hit_recursion_limit():
