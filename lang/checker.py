@@ -150,7 +150,8 @@ class Checker:
                 self.uses.mark("typing", t.span)
         for t in d.types:
             for p in (t.parent.names if t.parent else ()):
-                self.require_type(p)
+                if p.key not in th:
+                    th.declare(p, ())   # a type named only as a parent is declared by that use
         cyc = th.cycle()
         if cyc:
             where = th.decl.get(cyc[0])

@@ -134,6 +134,9 @@ class ExprChecker:
         if isinstance(e, A.ExprName):
             return True
         if isinstance(e, A.Call):
+            if e.op.key in K.COMPONENTS and len(e.args) == 1:
+                # `(z v)` of a static vector is static; `(z ?obj)` reads the object's position
+                return self.is_static(e.args[0], env) and not self._is_object_ref(e.args[0], env)
             if e.op.key in K.STATE_ACCESSORS:
                 return False
             if self.scope.helper(e.op.key) is not None:
@@ -146,6 +149,15 @@ class ExprChecker:
                 self.is_static(e.body, env.child({}, {b.name.key for b in e.bindings}))
         if isinstance(e, A.If):
             return all(self.is_static(x, env) for x in (e.cond, e.then, e.orelse))
+        return False
+
+    def _is_object_ref(self, e: A.Expr, env: _Env) -> bool:
+        if isinstance(e, A.ExprVar):
+            return is_object(env.types.get(e.name.key))
+        if isinstance(e, A.ExprName):
+            return e.name.key in self.scope.objects
+        if isinstance(e, (A.If, A.Let)):
+            return True   # conservative
         return False
 
     # ---- calls -----------------------------------------------------------------------------

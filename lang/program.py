@@ -197,9 +197,21 @@ def build_programs(ws: Workspace, parsed: list[ParsedFile],
     return programs
 
 
+#: Inputs this version does not read yet, by suffix (scenes, configs and Lua come with the
+#: world-model and compiler front ends).
+NOT_YET = {".lua": "Lua predicate files", ".toml": "run configs", ".json": "scene/spec JSON files",
+           ".xml": "XML scenes", ".urdf": "URDF files"}
+
+
 def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckReport:
     """Parse and check files. Raises :class:`InputError` only for unreadable files."""
     ws = ws or Workspace()
+    for p in paths:
+        what = NOT_YET.get(Path(p).suffix.lower())
+        if what is not None:
+            raise InputError(error("E012", f"{p}: this version of `tmpc check` reads PDDL domains, "
+                                   f"problems and modules; {what} are not checked yet", None,
+                                   "pass .pddl/.tmpc files"))
     parsed = [ws.load(p) for p in paths]
     return check_parsed(ws, parsed)
 

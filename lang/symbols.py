@@ -165,6 +165,8 @@ STATE_ACCESSORS = frozenset({
     "position", "orientation", "transform", "rpy", "roll", "pitch", "yaw", "x-axis", "y-axis",
     "z-axis", "relative", "joint", "base", "x", "y", "z",
 })
+#: Per-axis components: static when applied to a static vector, state when applied to an object.
+COMPONENTS = frozenset({"x", "y", "z"})
 #: Accessors that read only fixed scene data (static within a problem).
 STATIC_ACCESSORS = frozenset({"extent", "support-region"})
 

@@ -84,6 +84,22 @@ def test_semantics_expression_language_types():
     assert rep.ok, rep.diagnostics
 
 
+def test_static_if_conditions_on_scene_data():
+    preds = """(tall ?m - manipulator ?s - surface :semantics
+      (if (> (z (upper (support-region ?s))) 1.0)
+          (<= (z ?m) (+ 0.3 (z (extent ?s))))
+          (let ((?h (z (center (support-region ?s))))) (if (<= ?h 0.5) (<= 1 2) (<= 2 1)))))"""
+    assert check(dom(preds=preds)).ok, check(dom(preds=preds)).diagnostics
+    bad = "(low ?m - manipulator :semantics (if (< (z ?m) 1) (<= 1 2) (<= 2 1)))"
+    assert "E302" in errors(check(dom(preds=bad)))
+
+
+def test_parent_only_types_are_declared_by_use():
+    rep = check("(define (domain t) (:requirements :typing) (:types room hall - place)"
+                " (:predicates (in ?p - place)))")
+    assert rep.ok and not rep.diagnostics
+
+
 def test_helpers_inline_and_check_per_use():
     defines = """(:define (gap ?a ?b) (distance (position ?a) (position ?b)))
   (:define (close ?d - scalar ?a ?b) (<= (gap ?a ?b) ?d))"""

@@ -48,6 +48,10 @@ def test_missing_file_and_usage_errors(tmp_path):
     assert r.returncode == 1 and "no such file" in r.stderr and "Traceback" not in r.stderr
     assert run("check").returncode == 2
     assert run("frobnicate").returncode == 2
+    lua = tmp_path / "preds.lua"
+    lua.write_text("function at(m, x) return True() end")
+    r = run("check", str(lua))
+    assert r.returncode == 1 and "E012" in r.stderr and "Traceback" not in r.stderr
     binary = tmp_path / "bin.pddl"
     binary.write_bytes(b"\xff\xfe\x00(")
     r = run("check", str(binary))
