@@ -82,10 +82,13 @@ class TmpcError(Exception):
 
     exit_code = 1
 
-    def __init__(self, diagnostics: Diagnostic | Iterable[Diagnostic]):
+    def __init__(self, diagnostics: Diagnostic | Iterable[Diagnostic],
+                 files: Mapping[str, SourceFile] | None = None):
         if isinstance(diagnostics, Diagnostic):
             diagnostics = [diagnostics]
         self.diagnostics = list(diagnostics)
+        #: the source files the spans point into, so the CLI can show the lines
+        self.files = dict(files or {})
         super().__init__("; ".join(f"[{d.code}] {d.message}" for d in self.diagnostics))
 
 
@@ -99,6 +102,10 @@ class CheckError(TmpcError):
 
 class InputError(TmpcError):
     """A file cannot be read, or a command-line input is malformed."""
+
+
+class SceneError(TmpcError):
+    """A scene, robot (URDF), mesh or run configuration is missing or malformed."""
 
 
 # --------------------------------------------------------------------------------------------
