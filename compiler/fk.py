@@ -1,8 +1,8 @@
 """Forward kinematics, generated from a :class:`KinematicTree` as a JAX function.
 
 ``RobotModel`` fixes the configuration layout shared by the compiler and the runtime:
-``q = [base_x, base_y, base_yaw]`` (only with a mobile base) followed by the controllable joints
-in scene order. ``make_fk(model)`` returns ``fk(q: (n,)) -> T_world_frame: (F, 4, 4)`` for every
+``q = [base_x, base_y, base_yaw]`` (only with a mobile base: the base's absolute planar pose in
+the world) followed by the controllable joints in scene order. ``make_fk(model)`` returns ``fk(q: (n,)) -> T_world_frame: (F, 4, 4)`` for every
 link frame; ``jax.vmap`` batches it. Joints that are not controllable stay at their scene values;
 mimic joints follow their source joint. The function has no square roots or divisions, so its
 gradients are finite everywhere.
@@ -80,11 +80,12 @@ def build_robot_model(tree: KinematicTree, spec: RobotSpec,
     names, lo, hi, wraps, q0 = [], [], [], [], []
     if spec.mobile_base:
         (xlo, xhi), (ylo, yhi) = bounds[0], bounds[1]
+        x0, y0, _ = spec.base_pose.translation
         names += BASE_DOFS
         lo += [xlo, ylo, -math.pi]
         hi += [xhi, yhi, math.pi]
         wraps += [False, False, True]
-        q0 += [0.0, 0.0, 0.0]
+        q0 += [x0, y0, base_yaw(spec.base_pose)]
     for name in ctrl:
         j = joints[name]
         cont = j.type == "continuous" or j.lower is None or j.upper is None
@@ -102,6 +103,12 @@ def build_robot_model(tree: KinematicTree, spec: RobotSpec,
     return RobotModel(tree, tuple(names), np.array(lo, float), np.array(hi, float),
                       np.array(wraps, bool), np.array(q0, float), fixed, spec.mobile_base,
                       spec.base_pose, frames, index)
+
+
+def base_yaw(p: Pose) -> float:
+    """Heading of a pose: the angle of its x axis in the world xy plane."""
+    R = pose_matrix(p)
+    return math.atan2(R[1, 0], R[0, 0])
 
 
 def _clip0(j) -> float:
@@ -193,17 +200,23 @@ def make_fk(model: RobotModel):
     root = model.frames.index(model.tree.root)
     n_frames = len(model.frames)
 
+    # A mobile base's q = (x, y, yaw) is its absolute planar pose; the scene base pose's height
+    # and any tilt (rotation other than yaw) stay fixed: T = Trans(x, y, z0) Rz(yaw) R_tilt.
+    yaw0 = base_yaw(model.base_pose)
+    c0, s0 = math.cos(yaw0), math.sin(yaw0)
+    tilt = np.array([[c0, s0, 0.0], [-s0, c0, 0.0], [0.0, 0.0, 1.0]]) @ base[:3, :3]
+    z0 = base[2, 3]
+
     def root_frame(q):
         batch = q.shape[:-1]
-        R0 = jnp.broadcast_to(jnp.asarray(base[:3, :3]), batch + (3, 3))
-        p0 = jnp.broadcast_to(jnp.asarray(base[:3, 3]), batch + (3,))
         if not model.mobile_base:
-            return R0, p0
+            return (jnp.broadcast_to(jnp.asarray(base[:3, :3]), batch + (3, 3)),
+                    jnp.broadcast_to(jnp.asarray(base[:3, 3]), batch + (3,)))
         c, s = jnp.cos(q[..., 2]), jnp.sin(q[..., 2])
         z, o = jnp.zeros_like(c), jnp.ones_like(c)
         Rb = jnp.stack([jnp.stack([c, -s, z], -1), jnp.stack([s, c, z], -1),
                         jnp.stack([z, z, o], -1)], -2)
-        return _mm(Rb, R0), _mv(Rb, p0) + jnp.stack([q[..., 0], q[..., 1], z], -1)
+        return _mm(Rb, jnp.asarray(tilt)), jnp.stack([q[..., 0], q[..., 1], z + z0], -1)
 
     def fk(q):
         q = jnp.asarray(q)

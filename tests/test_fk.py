@@ -103,12 +103,16 @@ def test_mobile_base_and_joint_aliases():
     assert model.q_names[:3] == ("base_x", "base_y", "base_yaw")
     assert model.default_q[model.q_names.index("torso_lift_joint")] == pytest.approx(0.2)
     fk = make_fk(model)
+    assert np.allclose(model.default_q[:3], 0.0)     # the scene's base pose: origin, no yaw
     q = model.default_q.copy()
     q[:3] = (1.0, 2.0, np.pi / 2)
     frames = fk(q)
     base = model.frame("base_footprint")
     assert np.allclose(frames.p[base], (1.0, 2.0, 0.1))
     assert np.allclose(frames.R[base] @ np.array([1.0, 0, 0]), (0.0, 1.0, 0.0), atol=1e-12)
+    turned = build_robot_model(tree, RobotSpec(urdf=tree.path, mobile_base=True,
+                                               base_pose=Pose.from_xyz_yaw(0.5, -1.0, 0.0, 0.3)))
+    assert np.allclose(turned.default_q[:3], (0.5, -1.0, 0.3))
     # a joint name refers to its child link's frame (tmit-star names grippers by joint)
     assert model.frame("l_gripper_tool_joint") == model.frame("l_gripper_tool_frame")
 
