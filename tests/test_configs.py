@@ -1,0 +1,252 @@
+"""Run configurations: native manifest, planet run TOML (+ params TOML), tmit-star spec."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import FIXTURES
+from test_scenes import pos_of, raises, where
+from tmpc.lang.configs import (CONFIG_LOADERS, PLANNER_PARAMS, load_config, load_planet_params,
+                               toml_positions)
+from tmpc.lang.scenes import LoadReport, load_allowed_pairs, load_scene
+from tmpc.lang.source import SourceFile
+
+CONFIGS = FIXTURES / "configs"
+SCENES = FIXTURES / "scenes"
+NATIVE = CONFIGS / "native" / "run.toml"
+PLANET = CONFIGS / "planet" / "run.toml"
+TMIT = CONFIGS / "tmit" / "problems" / "demo" / "problems" / "demo.json"
+LEGACY = Path("/tmp/legacy")
+
+
+def check_error(code: str, path: Path, needle: str | None, nth: int = 0):
+    """``code`` error naming the file, at ``needle`` (None: line 1, column 1)."""
+    diag, files = raises(code, load_config, path)
+    assert path.name in diag.message
+    expected = pos_of(path.read_text(), needle, nth) if needle else (1, 1)
+    assert where(diag, files) == expected, diag.message
+    return diag
+
+
+def copy_tree(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst)
+    return dst
+
+
+# --------------------------------------------------------------------------------------------
+# the fixtures
+
+
+def test_registry_names_match_config_format():
+    assert set(CONFIG_LOADERS) == {"tmpc-toml", "planet-toml", "tmit-star-json"}
+    for fmt, path in (("tmpc-toml", NATIVE), ("planet-toml", PLANET), ("tmit-star-json", TMIT)):
+        assert load_config(path).format == fmt
+        assert load_config(path, fmt=fmt).format == fmt
+
+
+def test_native_manifest():
+    c = load_config(NATIVE)
+    d = CONFIGS / "native"
+    assert (c.domain, c.problem) == (d / "domain.pddl", d / "problem.pddl")
+    assert c.scene == SCENES / "native" / "scene.json"
+    assert c.allowed_collisions == d / "pairs.csv" and c.semantics is None
+    assert c.mesh_dir == SCENES / "native" / "meshes"
+    assert c.params == (("coin_bias", 0.4), ("gd_tries", 5))
+    assert c.time_limit == 30.0 and c.output == d / "out" / "plan.json"
+    assert load_scene(c.scene, mesh_dir=c.mesh_dir).format == "tmpc-json"
+    assert len(load_allowed_pairs(c.allowed_collisions)) == 3
+
+
+def test_planet_run_toml_with_params():
+    report = LoadReport()
+    c = load_config(PLANET, report=report)
+    d = CONFIGS / "planet"
+    assert report.warnings == []
+    assert c.domain == d / "demo" / "domain.pddl" and c.semantics == d / "demo.lua"
+    assert c.scene == SCENES / "planet" / "demo" / "demo.xml"
+    assert c.mesh_dir == SCENES / "planet" / "demo"
+    assert c.allowed_collisions == d / "models" / "blacklist.csv"
+    assert c.params == (("coin_bias", 0.25), ("gd_tries", 4), ("success_scale", 50.0))
+    assert c.time_limit == 60.0 and c.output == d / "demo_solution.json"
+    s = load_scene(c.scene, mesh_dir=c.mesh_dir)
+    assert s.format == "planet-xml" and len(s.objects) == 3
+
+
+def test_tmit_spec_resolves_against_ancestors():
+    report = LoadReport()
+    c = load_config(TMIT, report=report)
+    root = CONFIGS / "tmit"
+    assert report.warnings == []                  # max_iterations is known and ignored
+    assert c.domain == root / "problems" / "demo" / "pddl" / "domain.pddl"
+    assert c.semantics == root / "lua" / "predicates.lua"
+    assert c.allowed_collisions == root / "models" / "blocklist.csv"
+    assert c.params == (("name", "demo"), ("min_steps", 1), ("max_steps", 6))
+    assert c.time_limit is None and c.mesh_dir is None
+    s = load_scene(c.scene)
+    assert s.format == "tmit-star-json" and s.robot.urdf == root / "models" / "arm2.urdf"
+
+
+def test_toml_positions():
+    src = SourceFile("t.toml", '# c\n[problem]\ndomain = "d.pddl"  # x\n\n[planner]\n'
+                               '"coin_bias" = 0.5\n')
+    values, keys = toml_positions(src)
+    assert src.text[values["problem.domain"].start:values["problem.domain"].end] == '"d.pddl"'
+    assert src.line_col(keys["planner.coin_bias"].start) == (6, 1)
+    assert src.line_col(keys["planner"].start) == (5, 1)
+
+
+def test_planner_params_are_documented():
+    text = (Path(__file__).resolve().parent.parent / "docs" / "world.md").read_text()
+    for name in PLANNER_PARAMS:
+        assert f"`{name}`" in text
+
+
+# --------------------------------------------------------------------------------------------
+# errors: code, file name, line:column
+
+
+def test_native_unknown_key_missing_key_and_missing_file(tmp_path):
+    d = copy_tree(CONFIGS / "native", tmp_path / "native")
+    run = d / "run.toml"
+    text = NATIVE.read_text()
+    run.write_text(text.replace("coin_bias = 0.4", "coin_bais = 0.4"))
+    diag = check_error("E504", run, "coin_bais")
+    assert "`coin_bias`" in diag.hint
+    run.write_text(text.replace('domain = "domain.pddl"\n', ""))
+    diag = check_error("E505", run, "[problem]")
+    assert '"domain"' in diag.message
+    run.write_text(text.replace('problem = "problem.pddl"', 'problem = "p2.pddl"'))
+    diag = check_error("E515", run, '"p2.pddl"')
+    assert str(d / "p2.pddl") in diag.hint
+    run.write_text(text.replace("../../scenes/native/scene.json", "scene.json"))
+    diag = check_error("E515", run, '"scene.json"')       # native: no search of parents
+
+
+def test_native_types_and_values(tmp_path):
+    d = copy_tree(CONFIGS / "native", tmp_path / "native")
+    run = d / "run.toml"
+    text = NATIVE.read_text()
+    run.write_text(text.replace("gd_tries = 5", 'gd_tries = "five"'))
+    check_error("E506", run, '"five"')
+    run.write_text(text.replace("gd_tries = 5", "gd_tries = 2.5"))
+    check_error("E506", run, "2.5")
+    run.write_text(text.replace("time_limit = 30", "time_limit = -1"))
+    check_error("E512", run, "-1")
+    run.write_text(text.replace("[problem]", "problem = 3\n[x]"))
+    raises("E503", load_config, run)
+    run.write_text(text.replace('scene = "', 'scene = '))
+    diag, _ = raises("E502", load_config, run)
+    assert "run.toml" in diag.message
+
+
+def test_toml_syntax_error_position(tmp_path):
+    p = tmp_path / "run.toml"
+    p.write_text('[problem]\ndomain = "d.pddl"\nproblem = p.pddl\n')
+    diag, files = raises("E502", load_config, p)
+    assert "run.toml" in diag.message and where(diag, files) == (3, 11)
+
+
+def test_planet_errors_and_warnings(tmp_path):
+    d = copy_tree(CONFIGS / "planet", tmp_path / "configs" / "planet")
+    shutil.copytree(SCENES, tmp_path / "scenes")    # "../../scenes/..." from the copy
+    run = d / "run.toml"
+    text = PLANET.read_text()
+    run.write_text(text + "max_iterations = 3\n")
+    report = LoadReport()
+    assert load_config(run, report=report).format == "planet-toml"
+    assert [w.code for w in report.warnings] == ["W500"]
+    run.write_text(text.replace('scene     = "../../scenes/planet/demo/demo.xml"\n', ""))
+    diag = check_error("E505", run, None)
+    assert '"scene"' in diag.message
+    run.write_text(text.replace("models/blacklist.csv", "models/blocklist.csv"))
+    diag = check_error("E515", run, '"models/blocklist.csv"')
+    assert str(d / "models" / "blocklist.csv") in diag.hint and str(tmp_path) in diag.hint
+    run.write_text(text.replace("timeout   = 60", 'timeout   = "60"'))
+    check_error("E506", run, '"60"')
+    run.write_text(text)
+    (d / "params.toml").write_text("coin_bias = 0.3\ngd_tries = -2\nseed = 4\n")
+    diag, files = raises("E512", load_config, run)
+    assert "params.toml" in diag.message and where(diag, files) == (2, 12)
+    report = LoadReport()
+    (d / "params.toml").write_text("coin_bias = 0.3\nseed = 4\n")
+    assert load_planet_params(d / "params.toml", report) == (("coin_bias", 0.3),)
+    assert [w.code for w in report.warnings] == ["W500"]
+
+
+def test_tmit_spec_errors(tmp_path):
+    root = copy_tree(CONFIGS / "tmit", tmp_path / "tmit")
+    spec = root / "problems" / "demo" / "problems" / "demo.json"
+    text = TMIT.read_text()
+    spec.write_text(text.replace('"min_steps": 1', '"min_steps": 9'))
+    check_error("E511", spec, "6\n")
+    spec.write_text(text.replace('"min_steps": 1', '"min_steps": "one"'))
+    check_error("E506", spec, '"one"')
+    spec.write_text(text.replace('  "domain": "problems/demo/pddl/domain.pddl",\n', ""))
+    diag = check_error("E505", spec, "{")
+    assert '"domain"' in diag.message
+    spec.write_text(text.replace("pb_1_scene.json", "pb_2_scene.json"))
+    diag = check_error("E515", spec, '"problems/demo/scenes/pb_2_scene.json"')
+    assert "scene file" in diag.message
+    spec.write_text(text.replace('"max_iterations": 3', '"max_iteration": 3'))
+    report = LoadReport()
+    load_config(spec, report=report)
+    assert [w.code for w in report.warnings] == ["W500"]
+    assert "`max_iterations`" not in (report.warnings[0].hint or "")
+    spec.write_text(text.replace('"max_steps": 6\n}', '"max_steps": 6,\n}'))
+    check_error("E500", spec, "}")
+
+
+def test_wrong_kind_of_file_and_unknown_format(tmp_path):
+    if LEGACY.is_dir():
+        diag, _ = raises("E503", load_config, LEGACY / "planet" / "params.toml")
+        assert "params file" in diag.message
+    diag, _ = raises("E503", load_config, SCENES / "native" / "scene.json")
+    assert "scene, not a run configuration" in diag.message
+    diag, _ = raises("E503", load_config, NATIVE, fmt="toml")
+    assert "tmpc-toml" in diag.hint
+    raises("E010", load_config, tmp_path / "missing.toml")
+
+
+def test_config_loader_does_not_import_heavy_modules():
+    code = ("import sys, tmpc.lang.configs\n"
+            "print(sorted(m for m in ('numpy', 'jax', 'z3', 'lxml', 'yourdfpy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+# --------------------------------------------------------------------------------------------
+# the real legacy configurations
+
+
+@pytest.mark.skipif(not LEGACY.is_dir(), reason="no legacy files at /tmp/legacy")
+def test_every_legacy_config_loads():
+    planet = load_config(LEGACY / "planet" / "clutter.toml")
+    assert planet.format == "planet-toml" and planet.params == (("coin_bias", 0.4),)
+    assert planet.mesh_dir == LEGACY / "planet" / "clutter"
+    assert planet.allowed_collisions == LEGACY / "planet" / "models" / "pr2_collision_blacklist.csv"
+    assert load_planet_params(LEGACY / "planet" / "params.toml") == (("coin_bias", 0.4),)
+    scene = load_scene(planet.scene, mesh_dir=planet.mesh_dir, strict_meshes=False)
+    assert scene.format == "planet-xml"
+
+    specs = sorted((LEGACY / "tmitstar" / "problems").glob("*/problems/*.json"))
+    loaded, broken = [], []
+    for f in specs:
+        try:
+            c = load_config(f)
+        except Exception as exc:       # noqa: BLE001 - recorded and checked below
+            broken.append((f.name, exc))
+            continue
+        assert c.format == "tmit-star-json" and c.scene.is_file()
+        load_scene(c.scene, strict_meshes=False)
+        loaded.append(f.name)
+    # clutter_testing_xacro.json names a scene that the tmit-star repository does not contain
+    assert [name for name, _ in broken] == ["clutter_testing_xacro.json"]
+    assert broken[0][1].diagnostics[0].code == "E515"
+    print(f"legacy configs: 2 planet TOML (run + params), {len(loaded)} of {len(specs)} "
+          "tmit-star specs")
+    assert len(loaded) >= 36
