@@ -38,9 +38,29 @@ class WorldState:
 
 
 def initial_state(scene: Scene, model: RobotModel | None) -> WorldState:
+    """The scene's start: objects with a ``parent`` are placed relative to it; an object whose
+    parent chain ends at the robot (its name, a link or a joint) starts held by that frame."""
     q = model.default_q.copy() if model is not None else np.zeros(0)
-    poses = {o.name: pose_matrix(o.pose) for o in scene.objects}
-    return WorldState(q, poses)
+    by_name = {o.name.lower(): o for o in scene.objects}
+    robot_name = scene.robot.name.lower() if scene.robot is not None else None
+    poses: dict[str, np.ndarray] = {}
+    held: dict[str, tuple[str, np.ndarray]] = {}
+    for o in scene.objects:
+        T, anchor = pose_matrix(o.pose), o.parent
+        seen = {o.name.lower()}
+        while anchor is not None and anchor.lower() in by_name and anchor.lower() not in seen:
+            parent = by_name[anchor.lower()]
+            seen.add(anchor.lower())
+            T, anchor = pose_matrix(parent.pose) @ T, parent.parent
+        if anchor is None:
+            poses[o.name] = T
+        elif model is not None and anchor.lower() == robot_name:
+            held[o.name] = (model.tree.root, T)
+        elif model is not None and model.frame(anchor) is not None:
+            held[o.name] = (anchor, T)
+        else:
+            poses[o.name] = T      # the loaders reject unknown parents; be lenient here
+    return WorldState(q, poses, held)
 
 
 def world_poses(state: WorldState, model: RobotModel | None, frames=None) -> dict[str, np.ndarray]:

@@ -67,9 +67,18 @@ def cmd_fmt(args) -> int:
     return run_fmt(args.files, check=args.check, fmt=args.format, print_diags=_print_diagnostics)
 
 
+def cmd_eval(args) -> int:
+    from tmpc.runtime.eval_command import run_eval
+    if args.expr is None and not args.predicate and not args.collisions:
+        sys.stderr.write("tmpc eval: give --expr EXPR, --predicate NAME ARG..., or --collisions\n")
+        return EXIT_USAGE
+    return run_eval(args, _print_diagnostics)
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
     "check": (cmd_check, "parse and check PDDL domains, problems and tmpc modules"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
+    "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
 }
 
 
@@ -93,6 +102,20 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                    help="show tracebacks of internal errors")
     if name == "check":
         p.add_argument("files", nargs="+", metavar="FILE", help="domain/problem/module files")
+    elif name == "eval":
+        p.add_argument("input", metavar="INPUT",
+                       help="a scene (JSON/XML) or run configuration (TOML, tmit-star spec JSON)")
+        p.add_argument("--state", metavar="S.json", help="state JSON (- for stdin); default: "
+                       "the initial state")
+        g = p.add_mutually_exclusive_group()
+        g.add_argument("--expr", metavar="EXPR", help="e.g. '(position l_gripper_tool_frame)'")
+        g.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"),
+                       help="a geometric predicate and its arguments")
+        p.add_argument("--collisions", action="store_true",
+                       help="report validity and every colliding pair")
+        p.add_argument("--tolerance", type=float, default=0.0,
+                       help="penetration depth (m) below which contacts are ignored")
+        p.add_argument("--json", action="store_true", help="print JSON")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
@@ -114,8 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return COMMANDS[args.command][0](args)
     except TmpcError as exc:
-        _print_diagnostics(exc.diagnostics, getattr(exc, "files", {}), getattr(args, "format",
-                                                                                "text"))
+        _print_diagnostics(exc.diagnostics, exc.files, getattr(args, "format", "text"))
         return exc.exit_code
     except KeyboardInterrupt:
         sys.stderr.write("interrupted\n")
