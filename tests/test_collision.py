@@ -1,0 +1,447 @@
+"""Collision checking (tmpc.runtime.collision, .spheres): hand-made scenes with known answers,
+the sound first pass against exact fcl, and agreement with an independent implementation
+(pinocchio + coal) on thousands of random PR2 and Panda states."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tmpc.lang.diagnostics import SceneError
+from tmpc.lang.robot import load_urdf
+from tmpc.lang.scene import Pose, RobotSpec, Scene, SceneObject, Shape
+
+fcl = pytest.importorskip("fcl")
+
+ROBOTS = {
+    "pr2": "package://example-robot-data/robots/pr2_description/urdf/pr2.urdf",
+    "panda": "package://example-robot-data/robots/panda_description/urdf/panda.urdf",
+}
+TOOL = "r_gripper_tool_frame"
+
+
+def _load(name: str, **spec):
+    from tmpc.compiler.fk import build_robot_model
+    from tmpc.runtime.collision import _jit_fk
+    tree = load_urdf(ROBOTS[name])
+    model = build_robot_model(tree, RobotSpec(urdf=tree.path, **spec))
+    return model, _jit_fk(model)
+
+
+@pytest.fixture(scope="module")
+def pr2():
+    return _load("pr2")
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return _load("panda")
+
+
+def box(name, xyz, half, movable=False, yaw=0.0, parent=None):
+    return SceneObject(name, Pose.from_xyz_yaw(*xyz, yaw), movable, Shape("box", size=half),
+                       parent=parent)
+
+
+def sphere(name, xyz, r, movable=True):
+    return SceneObject(name, Pose(tuple(xyz)), movable, Shape("sphere", radius=r))
+
+
+def scene(model, *objects, allowed=()):
+    return Scene("test", ((-3, 3), (-3, 3), (0, 2)), RobotSpec(urdf=model.tree.path),
+                 tuple(objects), tuple(allowed))
+
+
+def world(robot, *objects, allowed_collisions=(), **kw):
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = robot
+    return CollisionWorld(scene(model, *objects, allowed=allowed_collisions), model, fk, **kw)
+
+
+def frame_T(robot, q, name):
+    from tmpc.compiler.fk import homogeneous
+    model, fk = robot
+    return homogeneous(fk(np.asarray(q, float)))[model.frame(name)]
+
+
+def names(report):
+    return {(a, b) for a, b, _ in report.pairs}
+
+
+def q_with(model, **values):
+    q = model.default_q.copy()
+    for k, v in values.items():
+        q[model.q_names.index(k)] = v
+    return q
+
+
+# ---------------------------------------------------------------------------------------------
+# hand-made scenes
+
+
+def test_pr2_default_configuration_is_free_and_allowed_pairs_come_from_srdf_and_tree(pr2):
+    from tmpc.runtime.collision import find_srdf, srdf_disabled_pairs
+    model, _ = pr2
+    w = world(pr2)
+    assert w.check(model.default_q).valid
+    link = w.link_body
+    # adjacent through a joint, across the geometry-less wrist roll link and a fixed joint
+    assert w.allowed[link["r_wrist_flex_link"], link["r_gripper_palm_link"]]
+    srdf = srdf_disabled_pairs(find_srdf(model.tree.path))
+    assert len(srdf) > 1000
+    a, b = next((a, b) for a, b in srdf if a in link and b in link)
+    assert w.allowed[link[a], link[b]]
+    # the two shoulders can meet: not allowed
+    assert not w.allowed[link["r_shoulder_pan_link"], link["l_shoulder_pan_link"]]
+    # without the SRDF some disabled pair does touch at the default configuration
+    bare = world(pr2, srdf=False)
+    assert not bare.check(model.default_q).valid
+    assert all(w.allowed[link[x], link[y]] for x, y, _ in bare.check(model.default_q).pairs)
+
+
+def test_arm_inside_a_box_names_the_link_and_the_box(pr2):
+    model, _ = pr2
+    p = frame_T(pr2, model.default_q, "r_forearm_link") @ (0.15, 0, 0, 1)  # mid-forearm
+    w = world(pr2, box("box", p[:3], (0.05, 0.05, 0.05)))
+    r = w.check(model.default_q)
+    assert not r.valid
+    assert ("r_forearm_link", "box") in names(r)
+    assert all(b == "box" for _, b, _ in r.pairs)
+    assert all(d > 0 for *_, d in r.pairs)
+    far = world(pr2, box("box", (2.5, 2.5, 0.5), (0.1, 0.1, 0.1)))
+    assert far.check(model.default_q).valid
+
+
+def test_allowed_pairs_by_link_joint_and_scene_names(pr2):
+    model, _ = pr2
+    p = frame_T(pr2, model.default_q, "r_forearm_link") @ (0.15, 0, 0, 1)
+    obj = box("box", p[:3], (0.12, 0.12, 0.12))
+    full = names(world(pr2, obj).check(model.default_q))
+    by_link = world(pr2, obj, allowed=[("r_forearm_link", "box"), ("no_such_link", "Box")])
+    assert names(by_link.check(model.default_q)) == full - {("r_forearm_link", "box")}
+    assert by_link.unmatched_allowed == ("no_such_link",)
+    # a joint name stands for its child link (tmit-star blocklists name joints)
+    by_joint = world(pr2, obj, allowed=[("r_forearm_joint", "box")])
+    assert names(by_joint.check(model.default_q)) == full - {("r_forearm_link", "box")}
+    everything = [(a, "box") for a, _ in full]
+    by_scene = world(pr2, obj, allowed_collisions=everything)
+    assert by_scene.check(model.default_q).valid
+
+
+def test_penetration_depth_against_tolerance_primitives_and_meshes(pr2, tmp_path):
+    import trimesh
+    model, _ = pr2
+    slab = box("slab", (2.0, 0.0, 0.25), (0.3, 0.3, 0.25))          # top at z = 0.5
+    ball = sphere("ball", (2.0, 0.0, 0.5 + 0.1 - 0.025), 0.1)          # 2.5 cm deep
+    path = tmp_path / "cube.stl"
+    trimesh.creation.box((0.2, 0.2, 0.2)).export(path)
+    cube = SceneObject("cube", Pose((2.1, 0.0, 0.5 + 0.1 - 0.025)), True,
+                       Shape("mesh", mesh=path))
+    for obj in (ball, cube):
+        exact = world(pr2, slab, obj).check(model.default_q)
+        assert [(a, b) for a, b, _ in exact.pairs] == [("slab", obj.name)]
+        assert exact.pairs[0][2] == pytest.approx(0.025, abs=1e-6)
+        assert not world(pr2, slab, obj, tolerance=0.021).check(model.default_q).valid
+        assert world(pr2, slab, obj, tolerance=0.029).check(model.default_q).valid
+    # resting contact (depth 0) is no collision
+    resting = sphere("ball", (2.0, 0.0, 0.6), 0.1)
+    assert world(pr2, slab, resting).check(model.default_q).valid
+
+
+def test_static_pairs_are_skipped_movable_pairs_are_checked(pr2):
+    model, _ = pr2
+    a = box("a", (2.0, 0.0, 0.2), (0.2, 0.2, 0.2))
+    b = box("b", (2.1, 0.0, 0.2), (0.2, 0.2, 0.2))
+    assert world(pr2, a, b).check(model.default_q).valid
+    b_movable = box("b", (2.1, 0.0, 0.2), (0.2, 0.2, 0.2), movable=True)
+    w = world(pr2, a, b_movable)
+    assert names(w.check(model.default_q)) == {("a", "b")}
+    # a world pose for the movable one moves it away
+    T = np.eye(4)
+    T[:3, 3] = (2.0, 1.0, 0.2)
+    assert w.check(model.default_q, poses={"b": T}).valid
+
+
+def test_object_parents_compose_poses(pr2):
+    model, _ = pr2
+    table = box("table", (2.0, 0.0, 0.375), (0.5, 0.5, 0.375))
+    # 0.5 m above the table's center: 0.125 m above its top, relative to the table
+    cup = SceneObject("cup", Pose((0.3, 0.0, 0.5)), True, Shape("sphere", radius=0.1),
+                      parent="table")
+    other = sphere("other", (2.3, 0.0, 0.875 + 0.15), 0.1)
+    assert names(world(pr2, table, cup, other).check(model.default_q)) == {("cup", "other")}
+    on_hand = SceneObject("tag", Pose((0.0, 0.0, 0.0)), True, Shape("sphere", radius=0.02),
+                          parent=TOOL)
+    w = world(pr2, on_hand, box("wall", (0.951, -0.188, 1.2), (0.3, 0.3, 0.1)))
+    up = q_with(model, r_shoulder_lift_joint=-0.5)
+    assert ("tag", "wall") in names(w.check(up))
+    assert w.check(model.default_q).valid
+
+
+def _stick():
+    return box("stick", (0.0, 2.0, 0.3), (0.02, 0.02, 0.15), movable=True)
+
+
+def test_held_object_moves_with_the_gripper_and_hits_the_table(pr2):
+    model, _ = pr2
+    p = frame_T(pr2, model.default_q, TOOL)[:3, 3]
+    table = box("table", (p[0], p[1], (p[2] - 0.1) / 2), (0.3, 0.3, (p[2] - 0.1) / 2))
+    w = world(pr2, table, _stick())
+    held = {"stick": (TOOL, np.eye(4))}
+    # in the gripper at the default configuration: 5 cm into the table, touching the fingers
+    r = w.check(model.default_q, attached=held)
+    assert names(r) == {("table", "stick")}
+    assert r.pairs[0][2] == pytest.approx(0.05, abs=1e-6)
+    assert w.check(model.default_q).valid                 # not held: the stick stays away
+    up = q_with(model, r_shoulder_lift_joint=-0.4)
+    assert w.check(up, attached=held).valid
+    # the hand exclusion is what hides the fingers: without it they collide with the stick
+    strict = world(pr2, table, _stick(), attach_allowed={TOOL: []})
+    got = names(strict.check(up, attached=held))
+    assert any(a.startswith("r_gripper") and b == "stick" for a, b in got)
+    # held away from the hand, it hits the forearm
+    back = np.eye(4)
+    back[0, 3] = -0.3
+    hit = names(w.check(up, attached={"stick": ("r_gripper_tool_joint", back)}))
+    assert any(a in ("r_forearm_link", "r_wrist_flex_link") and b == "stick" for a, b in hit)
+
+
+def test_motion_finds_the_first_collision_and_takes_the_short_way_round(pr2):
+    model, _ = pr2
+    p = frame_T(pr2, model.default_q, TOOL)[:3, 3]
+    table = box("table", (p[0], p[1], (p[2] - 0.1) / 2), (0.3, 0.3, (p[2] - 0.1) / 2))
+    w = world(pr2, table, _stick())
+    held = {"stick": (TOOL, np.eye(4))}
+    up = q_with(model, r_shoulder_lift_joint=-0.4)
+    m = w.check_motion(up, model.default_q, resolution=0.01, attached=held)
+    assert not m.valid and 0.0 < m.t_first_collision < 1.0
+    assert m.steps == 40
+    assert names(m.report) == {("table", "stick")}
+    # the state just before the first collision is free
+    before = up + (m.t_first_collision - 1 / m.steps) * (model.default_q - up)
+    assert w.check(before, attached=held).valid
+    assert w.check_motion(model.default_q, up, attached=held).t_first_collision == 0.0
+    assert w.check_motion(up, q_with(model, r_shoulder_lift_joint=-0.3), attached=held).valid
+    # a continuous joint from 3.0 to -3.0 goes through pi, not through 0
+    a, b = q_with(model, r_forearm_roll_joint=3.0), q_with(model, r_forearm_roll_joint=-3.0)
+    Q = w.interpolate(a, b, 0.02)
+    i = model.q_names.index("r_forearm_roll_joint")
+    assert len(Q) == math.ceil((2 * math.pi - 6.0) / 0.02) + 1
+    assert np.all(np.abs(np.diff(Q[:, i])) <= 0.02 + 1e-12)
+    assert np.all(np.abs(Q[:, i]) >= 3.0 - 1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# the first pass is sound
+
+
+def test_covers_contain_their_geometry():
+    from tmpc.runtime.collision import load_mesh
+    from tmpc.runtime.spheres import ball, cover
+    rng = np.random.default_rng(0)
+    tree = load_urdf(ROBOTS["pr2"])
+    shapes = [(g.shape, load_mesh(g.shape.mesh, g.shape.scale) if g.shape.kind == "mesh"
+               else None) for lk in tree.links for g in lk.collision]
+    shapes += [(Shape("box", size=(0.02, 0.3, 0.7)), None),
+               (Shape("cylinder", radius=0.03, length=0.4), None),
+               (Shape("sphere", radius=0.2), None)]
+    for shape, mesh in shapes:
+        if mesh is not None:      # points on the surface: random points of random triangles
+            tri = mesh.vertices[mesh.faces[rng.integers(len(mesh.faces), size=4000)]]
+            u = rng.dirichlet(np.ones(3), 4000)
+            pts = (tri * u[:, :, None]).sum(1)
+        elif shape.kind == "box":
+            pts = rng.uniform(-1, 1, (4000, 3)) * shape.size
+        elif shape.kind == "cylinder":
+            ang, rad = rng.uniform(0, 2 * np.pi, 4000), shape.radius * np.sqrt(rng.random(4000))
+            pts = np.stack([rad * np.cos(ang), rad * np.sin(ang),
+                            rng.uniform(-0.5, 0.5, 4000) * shape.length], 1)
+        else:
+            v = rng.normal(size=(4000, 3))
+            pts = v / np.linalg.norm(v, axis=1)[:, None] * shape.radius * rng.random((4000, 1))
+        C, r = cover(shape, mesh)
+        d = np.linalg.norm(pts[:, None] - C[None], axis=2) - r[None]
+        assert (d.min(1) <= 0).all(), shape
+        c, R = ball(shape, mesh)
+        assert (np.linalg.norm(pts - c, axis=1) <= R).all()
+
+
+def test_first_pass_never_frees_a_colliding_state(pr2):
+    """Thousands of random PR2 states with a mobile base among boxes, movable sticks and a held
+    object: the batched path (pass + fcl on candidates) equals exact fcl on every state, and
+    every colliding pair of every state is among the pass's candidates."""
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = _load("pr2", mobile_base=True)
+    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
+                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
+            for k in range(4)]
+    objs += [box(f"stick{i}", (1.6 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
+             for i in range(4)]
+    objs.append(sphere("ball", (0.0, 0.0, 1.6), 0.1))
+    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
+                                                                  mobile_base=True), tuple(objs))
+    w = CollisionWorld(sc, model, fk)
+    exact = CollisionWorld(sc, model, fk, first_pass=False)
+    rng = np.random.default_rng(11)
+    Q = rng.uniform(model.lower, model.upper, (3000, model.dof))
+    Q[:, :2] = rng.uniform(-1.0, 1.0, (3000, 2))
+    held = {"stick0": (TOOL, np.eye(4))}
+    for att in (None, held):
+        batch = w.check_batch(Q, attached=att)
+        truth = exact.check_batch(Q, attached=att)
+        assert (batch == truth).all(), np.nonzero(batch != truth)
+        assert 0.1 < (~truth).mean() < 0.9
+    # pair level, on 500 states: colliding pairs are a subset of the candidates
+    fp = w.first_pass()
+    place, allowed = w.placements(attached=held)
+    cand = fp.candidates(Q[:500], fp.plan(place, allowed))
+    body = lambda g: w.bodies[w.geoms[g].body].name
+    got = {(int(s), frozenset((body(a), body(b))))
+           for s, a, b in zip(cand.states, cand.ga, cand.gb)}
+    fixed = {o.name for o in objs} - {"stick0"}        # checked once per batch, not per state
+    missing = [(i, a, b) for i in range(500) for a, b, _ in w.check(Q[i], attached=held).pairs
+               if (i, frozenset((a, b))) not in got and not {a, b} <= fixed]
+    assert missing == []
+    assert w.stats.states >= 6000
+
+
+# ---------------------------------------------------------------------------------------------
+# errors
+
+
+def test_user_errors_have_codes(pr2, tmp_path):
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = pr2
+
+    def code(fn):
+        with pytest.raises(SceneError) as info:
+            fn()
+        d = info.value.diagnostics[0]
+        assert d.hint
+        return d.code
+
+    bad = tmp_path / "bad.stl"
+    bad.write_text("not a mesh")
+    assert code(lambda: world(pr2, SceneObject("m", Pose(), True, Shape("mesh", mesh=bad)))) \
+        == "E565"
+    w = world(pr2, box("table", (2, 0, 0.3), (0.3, 0.3, 0.3)), _stick())
+    moved = np.eye(4)
+    moved[0, 3] = 5.0
+    assert code(lambda: w.check(model.default_q, poses={"table": moved})) == "E566"
+    assert code(lambda: w.check(model.default_q, attached={"table": (TOOL, np.eye(4))})) \
+        == "E566"
+    assert code(lambda: w.check(model.default_q, poses={"mug": np.eye(4)})) == "E567"
+    assert code(lambda: w.check(model.default_q, attached={"stick": ("claw", np.eye(4))})) \
+        == "E568"
+    assert code(lambda: world(pr2, attach_allowed={TOOL: ["no_link"]})) == "E568"
+    loop = [SceneObject("a", Pose(), True, Shape("sphere", radius=0.1), parent="b"),
+            SceneObject("b", Pose(), True, Shape("sphere", radius=0.1), parent="a")]
+    assert code(lambda: world(pr2, *loop)) == "E569"
+    assert code(lambda: world(pr2, SceneObject("a", Pose(), True, Shape("sphere", radius=0.1),
+                                               parent="nowhere"))) == "E569"
+    srdf = tmp_path / "bad.srdf"
+    srdf.write_text("<robot><disable_collisions")
+    assert code(lambda: world(pr2, srdf=srdf)) == "E570"
+    assert code(lambda: world(pr2, tolerance=-0.01)) == "E572"
+    assert code(lambda: w.check(model.default_q[:-1])) == "E573"
+    assert code(lambda: w.check(model.default_q, poses={"stick": np.eye(3)})) == "E573"
+    assert code(lambda: world(pr2, box("flat", (2, 0, 0), (0.3, 0.0, 0.3)))) == "E574"
+    assert code(lambda: w.check_motion(model.default_q, model.default_q, resolution=0.0)) \
+        == "E575"
+    assert isinstance(CollisionWorld, type)
+
+
+# ---------------------------------------------------------------------------------------------
+# agreement with an independent implementation: pinocchio's geometry model + coal
+
+
+def _pin_q(pin, pmodel, model, q):
+    """Our configuration as pinocchio's q (continuous joints are (cos, sin) there)."""
+    values = dict(zip(model.q_names, q))
+    values.update(model.fixed)
+    for j in model.tree.joints:
+        if j.mimic is not None:
+            values[j.name] = j.mimic.multiplier * values[j.mimic.joint] + j.mimic.offset
+    pq = pin.neutral(pmodel)
+    for jid in range(1, pmodel.njoints):
+        jm, v = pmodel.joints[jid], values[pmodel.names[jid]]
+        if jm.nq == 2:
+            pq[jm.idx_q:jm.idx_q + 2] = (np.cos(v), np.sin(v))
+        else:
+            pq[jm.idx_q] = v
+    return pq
+
+
+AGREEMENT_SCENES = {
+    "pr2": [box("shelf", (0.75, -0.1, 0.65), (0.15, 0.35, 0.08)),
+            box("block", (0.35, -0.65, 1.0), (0.12, 0.12, 0.12), yaw=0.5)],
+    "panda": [box("shelf", (0.5, 0.0, 0.3), (0.1, 0.25, 0.05)),
+              box("block", (0.0, 0.45, 0.5), (0.08, 0.08, 0.08), yaw=0.3)],
+}
+BAND = 1e-4     # pairs within 1e-4 m of touching (by either implementation) are not compared
+
+
+@pytest.mark.parametrize("name", ["pr2", "panda"])
+def test_agrees_with_pinocchio_and_coal_on_random_states(name, request):
+    """Every colliding pair (self-collision and robot vs box) of 2000 random states, ours
+    (python-fcl) against pinocchio + coal; pairs we allow are not compared."""
+    pin = pytest.importorskip("pinocchio")
+    from tmpc.lang.robot import example_robot_data_dir
+    model, fk = request.getfixturevalue(name)
+    objs = AGREEMENT_SCENES[name]
+    w = world((model, fk), *objs)
+    path = model.tree.path
+    pmodel = pin.buildModelFromUrdf(path)
+    gmodel = pin.buildGeomFromUrdf(pmodel, path, pin.GeometryType.COLLISION,
+                                   package_dirs=[str(example_robot_data_dir().parent)])
+    owner = [pmodel.frames[o.parentFrame].name for o in gmodel.geometryObjects]
+    import coal
+    from tmpc.compiler.fk import pose_matrix
+    for o in objs:
+        T = pose_matrix(o.pose)
+        gmodel.addGeometryObject(pin.GeometryObject(o.name, 0, pin.SE3(T[:3, :3], T[:3, 3]),
+                                                    coal.Box(*(2 * np.array(o.shape.size)))))
+        owner.append(o.name)
+    index = {**w.link_body, **{o.name: w._object_body(o.name, "") for o in objs}}
+    n = len(owner)
+    for i in range(n):
+        for k in range(i + 1, n):
+            a, b = index[owner[i]], index[owner[k]]
+            if a != b and not w.allowed[a, b]:
+                gmodel.addCollisionPair(pin.CollisionPair(i, k))
+    assert len(gmodel.collisionPairs) > 15
+    pdata, gdata = pmodel.createData(), pin.GeometryData(gmodel)
+    by_key: dict[frozenset, list[int]] = {}
+    for k, cp in enumerate(gmodel.collisionPairs):
+        by_key.setdefault(frozenset((owner[cp.first], owner[cp.second])), []).append(k)
+    rng = np.random.default_rng(5)
+    agree = band = seen = boxes = 0
+    outside = []
+    for q in rng.uniform(model.lower, model.upper, (2000, model.dof)):
+        ours = {frozenset((a, b)) for a, b, _ in w.check(q).pairs}
+        pin.computeCollisions(pmodel, pdata, gmodel, gdata, _pin_q(pin, pmodel, model, q), False)
+        theirs = {key for key, ks in by_key.items()
+                  if any(gdata.collisionResults[k].isCollision() for k in ks)}
+        seen += len(theirs)
+        agree += len(theirs & ours)
+        boxes += sum(1 for key in theirs & ours if key & {"shelf", "block"})
+        for key in theirs ^ ours:
+            if key in ours:     # coal said free: is it within BAND (coal with a margin)?
+                near = False
+                for k in by_key[key]:
+                    gdata.collisionRequests[k].security_margin = BAND
+                    near |= pin.computeCollision(gmodel, gdata, k)
+                    gdata.collisionRequests[k].security_margin = 0.0
+            else:               # we said free: is fcl's distance below BAND?
+                a, b = (w.bodies[index[x]].geoms for x in key)
+                near = min(fcl.distance(w.geoms[x].obj, w.geoms[y].obj, fcl.DistanceRequest(),
+                                        fcl.DistanceResult()) for x in a for y in b) < BAND
+            band += near
+            if not near:
+                outside.append((sorted(key), key in ours))
+    print(f"\n{name}: 2000 states, {seen} colliding pairs (coal), {agree} agreed ({boxes} robot "
+          f"vs box), {band} disagreements within {BAND} m of touching, {len(outside)} outside")
+    assert outside == []
+    assert agree > 500 and boxes > 100 and band <= 0.01 * agree
