@@ -126,8 +126,9 @@ def tabletop_scene() -> dict:
         "format": "tmpc-scene/1",
         "bounds": [[-1.0, 1.5], [-1.0, 1.0], [0.0, 1.5]],
         "robot": {"urdf": PANDA, "name": "panda", "base_pose": _pose(0.0, 0.0, 0.0),
-                  "joints": {"panda_joint2": -0.3, "panda_joint4": -2.2, "panda_joint6": 1.9,
-                             "panda_joint7": 0.8, "panda_finger_joint1": 0.035},
+                  # hand pointing down 20 cm over the bench, collision-free (a test pins this)
+                  "joints": {"panda_joint2": -0.3, "panda_joint4": -1.7, "panda_joint6": 1.4,
+                             "panda_joint7": 0.785, "panda_finger_joint1": 0.035},
                   "controllable": [f"panda_joint{i}" for i in range(1, 8)]},
         "objects": [
             {"name": "bench", "pose": _pose(0.55, 0.0, 0.2),

@@ -1,0 +1,46 @@
+"""The generated example worlds load through the scene loader and start valid."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from conftest import EXAMPLES, check
+from tmpc.runtime.worlds import clutter_problem, clutter_scene, tabletop_scene
+
+
+@pytest.mark.parametrize("n, red", [(1, False), (8, False), (8, True), (14, True)])
+def test_clutter_scene_loads_checks_and_starts_collision_free(tmp_path, n, red):
+    from tmpc.compiler.state import initial_state
+    from tmpc.runtime.world import load_world
+    scene_file = tmp_path / "scene.json"
+    scene_file.write_text(json.dumps(clutter_scene(n, red)))
+    world = load_world(scene_file)
+    names = {o.name for o in world.scene.objects}
+    assert len(names) == 4 + n + (14 if red else 0)
+    domain = (EXAMPLES / "clutter" / "domain.pddl").read_text()
+    report = check(domain + clutter_problem(n, red))
+    assert report.ok, report.diagnostics
+    objects = {o.name.key for o in report.programs[0].problem.objects}
+    assert objects - {"l_gripper_tool_frame", "r_gripper_tool_frame"} == \
+        {x.lower() for x in names}
+    st = initial_state(world.scene, world.model)
+    rep = world.collision().check(st.q, poses=st.poses)
+    assert rep.valid, rep.pairs
+
+
+def test_bundled_examples_match_their_generators():
+    assert json.loads((EXAMPLES / "clutter" / "scene.json").read_text()) == clutter_scene(1)
+    assert (EXAMPLES / "clutter" / "problem.pddl").read_text() == clutter_problem(1)
+    assert json.loads((EXAMPLES / "tabletop" / "scene.json").read_text()) == tabletop_scene()
+
+
+def test_tabletop_starts_valid_with_the_hand_over_the_bench():
+    from tmpc.compiler.state import initial_state
+    from tmpc.runtime.world import load_world
+    world = load_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    st = initial_state(world.scene, world.model)
+    assert world.collision().check(st.q, poses=st.poses).valid
+    tcp = world.fk(st.q).p[world.model.frame("panda_hand_tcp")]
+    assert 0.5 < float(tcp[2]) < 0.7
