@@ -184,6 +184,9 @@ class Plan:
     local: np.ndarray            # (M, 4, 4) T_frame_geom
     ball_c: np.ndarray           # (M, 3) in frame coordinates
     ball_r: np.ndarray           # (M,)
+    obb_c: np.ndarray            # (M, 3) box (the local AABB) center, frame coordinates
+    obb_R: np.ndarray            # (M, 3, 3) box axes in frame coordinates
+    obb_h: np.ndarray            # (M, 3) half-extents
     cov_c: np.ndarray            # (M, K, 3) in frame coordinates
     cov_r: np.ndarray            # (M, K), padding _NEVER
     mm: np.ndarray               # (P, 2)
@@ -194,6 +197,7 @@ class Plan:
     box_h: np.ndarray            # (W, 3) half-extents
     box_r: np.ndarray            # (W,) rounding radius
     ff: np.ndarray               # (F, 2)
+    tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
 
 
 @dataclass
@@ -219,6 +223,7 @@ class FirstPass:
         self.K = max([len(c[1]) for c in self.covers] + [1])
         self._fk = _jit_frames_T(world.fk)
         self._plans: dict = {}
+        self._tables: dict = {}
 
     def plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
         """The plan of a batch (cached: motions reuse it)."""
@@ -263,8 +268,24 @@ class FirstPass:
             ball_r[i] = self.balls[g][1]
         arr = [np.array([b[j] for b in boxes]).reshape((-1,) + shp)
                for j, shp in enumerate(((3, 3), (3,), (3,), ()))]
-        return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r, cov_c,
-                    cov_r, mm, by_box, box_geom, *arr, pairs[~ma & ~mb])
+        gm = [w.geoms[g] for g in mv]
+        obb_c = np.array([L[:3, :3] @ g.aabb_center + L[:3, 3] for L, g in zip(lm, gm)])
+        obb_h = np.array([_inflate(g.aabb_half) for g in gm])
+        tables = [(k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm)]
+        return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r,
+                    obb_c.reshape(-1, 3), lm[:, :3, :3], obb_h.reshape(-1, 3), cov_c,
+                    cov_r, mm, by_box, box_geom, *arr, pairs[~ma & ~mb],
+                    [(k, t) for k, t in tables if t is not None])
+
+    def _table(self, ga: int, gb: int) -> "PairTable | None":
+        """The pair table of two robot link geometries (None for held objects, whose placement
+        changes from call to call, and for pairs with no table)."""
+        if any(self.world.bodies[self.world.geoms[g].body].kind != "link" for g in (ga, gb)):
+            return None
+        key = (min(ga, gb), max(ga, gb))
+        if key not in self._tables:
+            self._tables[key] = PairTable.build(self.world, *key)
+        return self._tables[key]
 
     def _world_box(self, g: int, T: np.ndarray):
         geom = self.world.geoms[g]
@@ -283,7 +304,13 @@ class FirstPass:
         a, b = plan.mm[:, 0], plan.mm[:, 1]
         d = c[a] - c[b]                                                     # (P, 3, B)
         d2 = d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2
-        k1, s1 = np.nonzero(d2 <= ((r[a] + r[b]) ** 2)[:, None])
+        hit = d2 <= ((r[a] + r[b]) ** 2)[:, None]
+        for k, table in plan.tables:
+            hit[k] &= ~table.free(Q)
+        k1, s1 = np.nonzero(hit)
+        near = self._box_meets_ball(Rg, pg, plan, a[k1], b[k1], c, s1) & \
+            self._box_meets_ball(Rg, pg, plan, b[k1], a[k1], c, s1)
+        k1, s1 = k1[near], s1[near]
         m2, w2, s2 = self._coarse_boxes(c, plan)
         coarse = len(s1) + len(s2)
         ok1 = self._fine_pairs(Rg, pg, plan, s1, a[k1], b[k1], c)
@@ -293,6 +320,20 @@ class FirstPass:
         gb = np.concatenate([plan.mv[b[k1][ok1]], plan.box_geom[w2[ok2]]])
         order = np.argsort(states, kind="stable")
         return Candidates(states[order], ga[order], gb[order], R, p, coarse)
+
+    @staticmethod
+    def _box_meets_ball(Rg, pg, plan: Plan, m, other, c, s) -> np.ndarray:
+        """Whether the box of geometry m meets the bounding ball of geometry ``other`` in states
+        s: (N,) bool."""
+        Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]                # (N, 3, 3), (N, 3)
+        y = [Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2] - plan.obb_c[m, i]
+             for i in range(3)]                                            # frame coordinates
+        O, h = plan.obb_R[m], plan.obb_h[m]
+        d2 = 0.0
+        for j in range(3):
+            loc = O[:, 0, j] * y[0] + O[:, 1, j] * y[1] + O[:, 2, j] * y[2]
+            d2 = d2 + np.maximum(np.abs(loc) - h[:, j], 0.0) ** 2
+        return d2 <= plan.ball_r[other] ** 2
 
     @staticmethod
     def _coarse_boxes(c, plan: Plan):
@@ -378,6 +419,160 @@ class FirstPass:
             d2 = d2 + np.maximum(np.abs(loc) - h[:, j, None], 0.0) ** 2
         rr = plan.cov_r[m] + plan.box_r[w][:, None]
         return ((d2 <= rr * np.abs(rr)) & (rr > 0)).any(1)
+
+
+# ---------------------------------------------------------------------------------------------
+# pair tables
+
+
+@dataclass
+class PairTable:
+    """A sound "free" test for two link geometries whose relative pose depends on one or two
+    configuration coordinates (the PR2's two shoulder pan links: a candidate in every random
+    state, their covers being ~12 cm apart).
+
+    ``dist`` holds, on a grid of the coordinates, a lower bound of the distance between the two
+    (fcl GJK distance between their convex hulls, which contain them, minus :data:`GJK_MARGIN`).
+    Moving coordinate i by Δ moves no point of one geometry relative to the other by more than
+    ``rate[i] * |Δ|`` (a revolute joint: |Δ| times the largest distance of the moved geometry
+    from the joint origin; a prismatic joint: |Δ|), so the pair is free at x when
+    ``dist[g] > sum_i rate[i] * |x_i - g_i|`` for the nearest grid point g.
+    """
+
+    ga: int
+    gb: int
+    cols: np.ndarray             # (k,) columns of q
+    lo: np.ndarray
+    step: np.ndarray
+    n: np.ndarray
+    wrap: np.ndarray
+    rate: np.ndarray
+    dist: np.ndarray             # (prod n,)
+
+    def free(self, Q: np.ndarray) -> np.ndarray:
+        """(B,) bool: the pair certainly does not touch in states Q (B, n)."""
+        x = Q[:, self.cols]
+        span = np.where(self.wrap, 2 * np.pi, 1.0)
+        x = np.where(self.wrap, (x - self.lo) % span + self.lo, x)
+        idx = np.rint((x - self.lo) / self.step).astype(np.int64)
+        idx = np.where(self.wrap, idx % self.n, np.clip(idx, 0, self.n - 1))
+        dev = np.abs(x - (self.lo + idx * self.step))
+        dev = np.where(self.wrap, np.minimum(dev, 2 * np.pi - dev), dev)
+        flat = np.ravel_multi_index(tuple(idx.T), tuple(self.n))
+        return self.dist[flat] > (self.rate * dev).sum(1)
+
+    @staticmethod
+    def build(world: "CollisionWorld", ga: int, gb: int) -> "PairTable | None":
+        """The table of a pair of robot link geometries, or None when their relative pose depends
+        on no or more than two coordinates (or on a joint more than once, or on a prismatic
+        joint below another moving joint)."""
+        import fcl
+        model = world.model
+        if any(world.bodies[world.geoms[g].body].kind != "link" for g in (ga, gb)):
+            return None
+        sides = [_path_joints(model, world.bodies[world.geoms[g].body].name) for g in (ga, gb)]
+        common = {j.name for j in sides[0]} & {j.name for j in sides[1]}
+        qidx = {n: i for i, n in enumerate(model.q_names)}
+        coords: dict[int, list] = {}
+        for side, chain in enumerate(sides):
+            for depth, j in enumerate(chain):
+                if j.name in common or not j.movable:
+                    continue
+                src, mult = (j.mimic.joint, j.mimic.multiplier) if j.mimic else (j.name, 1.0)
+                if src in qidx:
+                    coords.setdefault(qidx[src], []).append((side, depth, j, abs(mult)))
+        if not 1 <= len(coords) <= 2 or any(len(v) > 1 for v in coords.values()):
+            return None
+        cols = np.array(sorted(coords))
+        entries = [coords[c][0] for c in cols]
+        T = world.frames(model.default_q[None], world.default_place)
+        Tg = _geom_world(world, T, ga), _geom_world(world, T, gb)
+        Tj = {e[2].name: _frame_world(world, model.default_q, e[2].child) for e in entries}
+        rate = []
+        for side, depth, j, mult in entries:
+            if j.type == "prismatic":
+                rate.append(mult)
+                continue
+            o = Tj[j.name][:3, 3]
+            below = [e for e in entries if e[0] == side and e[1] < depth]
+            if below and below[0][2].type == "prismatic":
+                return None
+            if below:
+                ob = Tj[below[0][2].name][:3, 3]
+                rho = np.linalg.norm(ob - o) + _reach(world.geoms[(ga, gb)[side]],
+                                                      Tg[side], ob)
+            else:
+                rho = _reach(world.geoms[(ga, gb)[side]], Tg[side], o)
+            rate.append(mult * rho)
+        rate = np.array(rate) * (1 + SLACK)
+        lo = np.where(model.wraps[cols], -np.pi, model.lower[cols])
+        hi = np.where(model.wraps[cols], np.pi, model.upper[cols])
+        n = np.maximum(2, np.ceil((hi - lo) * rate / (2 * TABLE_SLACK))).astype(np.int64)
+        while np.prod(n) > TABLE_CELLS:
+            n = np.maximum(2, (n * 0.9).astype(np.int64))
+        wrap = model.wraps[cols]
+        step = np.where(wrap, (hi - lo) / n, (hi - lo) / (n - 1))
+        grid = np.stack(np.meshgrid(*[lo[i] + np.arange(n[i]) * step[i] for i in range(len(n))],
+                                    indexing="ij"), -1).reshape(-1, len(n))
+        Q = np.repeat(model.default_q[None], len(grid), 0)
+        Q[:, cols] = grid
+        fpos, local, R, p = world.frames(Q, world.default_place)
+        objs = [_or(world.geoms[g].hull, world.geoms[g].obj) for g in (ga, gb)]
+        k = [world._dyn_pos[g] for g in (ga, gb)]
+        dist = np.empty(len(grid))
+        for i in range(len(grid)):
+            for o, kk in zip(objs, k):
+                Tw = np.eye(4)
+                Tw[:3, :3], Tw[:3, 3] = R[i, fpos[kk]], p[i, fpos[kk]]
+                Tw = Tw @ local[kk]
+                o.setTransform(fcl.Transform(Tw[:3, :3], Tw[:3, 3]))
+            dist[i] = fcl.distance(objs[0], objs[1], fcl.DistanceRequest(), fcl.DistanceResult())
+        return PairTable(ga, gb, cols, lo, step, n, wrap, rate, np.maximum(dist, 0.0) - GJK_MARGIN)
+
+
+#: grid spacing aims at this much slack per coordinate (m); tables have at most TABLE_CELLS cells
+TABLE_SLACK = 0.004
+TABLE_CELLS = 4096
+#: GJK's distance may exceed the true one by its tolerance: subtract this (m)
+GJK_MARGIN = 1e-4
+
+
+def _path_joints(model, link: str) -> list:
+    """Joints from ``link`` up to the root (nearest first)."""
+    parent = {j.child: j for j in model.tree.joints}
+    out = []
+    while link in parent:
+        out.append(parent[link])
+        link = parent[link].parent
+    return out
+
+
+def _frame_world(world, q, link: str) -> np.ndarray:
+    from tmpc.compiler.fk import homogeneous
+    return homogeneous(world.fk(q))[world.model.frame(link)]
+
+
+def _geom_world(world, frames, g: int) -> np.ndarray:
+    fpos, local, R, p = frames
+    k = world._dyn_pos[g]
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R[0, fpos[k]], p[0, fpos[k]]
+    return T @ local[k]
+
+
+def _reach(geom, T: np.ndarray, o: np.ndarray) -> float:
+    """Largest distance from point o of the geometry placed at T (world)."""
+    if geom.mesh is not None:
+        pts = geom.mesh.hull_vertices
+    else:
+        c, h = geom.aabb_center, geom.aabb_half
+        pts = c + h * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    world_pts = pts @ T[:3, :3].T + T[:3, 3]
+    return float(np.linalg.norm(world_pts - o, axis=1).max())
+
+
+def _or(a, b):
+    return a if a is not None else b
 
 
 #: candidate pairs per step of the cover stage (bounds its memory)

@@ -307,6 +307,34 @@ def test_first_pass_never_frees_a_colliding_state(pr2):
     assert w.stats.states >= 6000
 
 
+def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
+    """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
+    checked against fcl over the whole range of both joints (they do meet in it)."""
+    from tmpc.runtime.collision import _world
+    model, _ = pr2
+    w = world(pr2)
+    fp = w.first_pass()
+    plan = fp.plan(*w.placements())
+    (k, table), = plan.tables
+    names = {w.bodies[w.geoms[g].body].name for g in (table.ga, table.gb)}
+    assert names == {"r_shoulder_pan_link", "l_shoulder_pan_link"}
+    assert [model.q_names[c] for c in table.cols] == ["r_shoulder_pan_joint",
+                                                      "l_shoulder_pan_joint"]
+    rng = np.random.default_rng(2)
+    Q = np.repeat(model.default_q[None], 4000, 0)
+    Q[:, table.cols] = rng.uniform(model.lower[table.cols], model.upper[table.cols], (4000, 2))
+    free = table.free(Q)
+    fpos, local, R, p = w.frames(Q, w.default_place)
+    touching = np.zeros(len(Q), bool)
+    for i in range(len(Q)):
+        T = _world(R[i], p[i], fpos, local)
+        for g in (table.ga, table.gb):
+            w._set(g, T[w._dyn_pos[g]])
+        touching[i] = w._depth(table.ga, table.gb) is not None
+    assert not (free & touching).any()
+    assert touching.sum() > 50 and free.mean() > 0.6
+
+
 # ---------------------------------------------------------------------------------------------
 # errors
 
