@@ -606,7 +606,7 @@ def test_legacy_meshes_from_a_fallback_dir(tmp_path):
                    "pb_1_initial_scene.json", mesh_fallback_dirs=[tmp_path])
     assert s.object("table_1").shape.mesh == tmp_path / "table.obj"
     s = load_scene(LEGACY / "planet" / "clutter" / "clutter_1.xml",
-                   mesh_dir=LEGACY / "planet" / "clutter", mesh_fallback_dirs=[tmp_path])
+                   mesh_dir=tmp_path / "no-such-dir", mesh_fallback_dirs=[tmp_path])
     assert s.object("arena").shape.mesh == tmp_path / "arena.obj"
 
 
