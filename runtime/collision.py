@@ -40,7 +40,7 @@ from tmpc.lang.scene import Scene, Shape
 #: numerical slack on penetration depth: a resting contact computed as 1e-12 deep is not a collision
 DEPTH_EPS = 1e-9
 #: states per forward-kinematics call in batch checks
-CHUNK = 4096
+CHUNK = 1024
 
 
 @dataclass(frozen=True)

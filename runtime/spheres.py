@@ -187,7 +187,7 @@ class Plan:
     obb_c: np.ndarray            # (M, 3) box (the local AABB) center, frame coordinates
     obb_R: np.ndarray            # (M, 3, 3) box axes in frame coordinates
     obb_h: np.ndarray            # (M, 3) half-extents
-    cov_c: np.ndarray            # (M, K, 3) in frame coordinates
+    cov_c: np.ndarray            # (3, M, K) in frame coordinates, component first
     cov_r: np.ndarray            # (M, K), padding _NEVER
     mm: np.ndarray               # (P, 2)
     by_box: list[tuple[int, np.ndarray]]
@@ -271,6 +271,7 @@ class FirstPass:
         gm = [w.geoms[g] for g in mv]
         obb_c = np.array([L[:3, :3] @ g.aabb_center + L[:3, 3] for L, g in zip(lm, gm)])
         obb_h = np.array([_inflate(g.aabb_half) for g in gm])
+        cov_c = np.ascontiguousarray(cov_c.transpose(2, 0, 1))
         tables = [(k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm)]
         return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r,
                     obb_c.reshape(-1, 3), lm[:, :3, :3], obb_h.reshape(-1, 3), cov_c,
@@ -363,17 +364,21 @@ class FirstPass:
         return cat(out_m), cat(out_w), cat(out_s)
 
     @staticmethod
-    def _world_cover(Rg, pg, plan: Plan, m, s) -> np.ndarray:
-        """World centers (3, N, K) of the covers of moving geometries m in states s (component
-        first: numpy reduces over a trailing axis of 3 several times slower)."""
+    def _world_cover(Rg, pg, plan: Plan, m, s, order=None) -> list[np.ndarray]:
+        """World centers [x, y, z] (N, K) of the covers of moving geometries m in states s (the
+        balls ``order`` (N, K') only, when given). Component-first: numpy reduces over a
+        trailing axis of 3 several times slower."""
         Rm, pm = Rg[m, :, :, s], pg[m, :, s]                               # (N, 3, 3), (N, 3)
-        cov = plan.cov_c[m]                                                # (N, K, 3)
-        return np.stack([Rm[:, i, 0, None] * cov[..., 0] + Rm[:, i, 1, None] * cov[..., 1]
-                         + Rm[:, i, 2, None] * cov[..., 2] + pm[:, i, None] for i in range(3)])
+        cov = [plan.cov_c[j][m] for j in range(3)]                         # (N, K) each
+        if order is not None:
+            cov = [np.take_along_axis(cj, order, 1) for cj in cov]
+        return [Rm[:, i, 0, None] * cov[0] + Rm[:, i, 1, None] * cov[1]
+                + Rm[:, i, 2, None] * cov[2] + pm[:, i, None] for i in range(3)]
 
     def _fine_pairs(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
-        """Covers of pairs of moving geometries: a's balls that meet b's bounding ball, then
-        those against b's balls that meet a's bounding ball. (N,) bool: still a candidate."""
+        """Covers of pairs of moving geometries: the balls of a's cover that meet b's bounding
+        ball, against the balls of b's cover that meet a's bounding ball. (N,) bool: still a
+        candidate."""
         keep = np.zeros(len(s), bool)
         for lo in range(0, len(s), FINE_CHUNK):
             sl = slice(lo, lo + FINE_CHUNK)
@@ -383,24 +388,27 @@ class FirstPass:
     def _fine_chunk(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
         if len(s) == 0:
             return np.zeros(0, bool)
-        sides = []
+        near = []
         for m, other in ((a, b), (b, a)):
-            C = self._world_cover(Rg, pg, plan, m, s)                       # (3, N, K)
-            o = c[other, :, s]                                              # (N, 3)
+            # the other's ball center in m's frame: no per-ball transform needed
+            Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]
+            d2 = 0.0
+            for i in range(3):
+                o = Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2]
+                d2 = d2 + (plan.cov_c[i][m] - o[:, None]) ** 2
             rr = plan.cov_r[m] + plan.ball_r[other][:, None]
-            d2 = sum((C[i] - o[:, i, None]) ** 2 for i in range(3))
-            near = (d2 <= rr * rr) & (rr > 0)
-            sides.append((C, np.where(near, plan.cov_r[m], _NEVER), near))
-        live = sides[0][2].any(1) & sides[1][2].any(1)
+            near.append((d2 <= rr * rr) & (rr > 0))
+        live = near[0].any(1) & near[1].any(1)
         out = np.zeros(len(s), bool)
         if not live.any():
             return out
-        packed = []
-        for C, rad, near in sides:
-            nl = near[live]
-            order = np.argsort(~nl, axis=1, kind="stable")[:, :nl.sum(1).max()]
-            packed.append(([np.take_along_axis(C[i][live], order, 1) for i in range(3)],
-                           np.take_along_axis(rad[live], order, 1)))
+        s, packed = s[live], []
+        for m, nr in zip((a[live], b[live]), (near[0][live], near[1][live])):
+            order = np.argsort(~nr, axis=1, kind="stable")[:, :nr.sum(1).max()]
+            C = self._world_cover(Rg, pg, plan, m, s, order)
+            rad = np.where(np.take_along_axis(nr, order, 1),
+                           np.take_along_axis(plan.cov_r[m], order, 1), _NEVER)
+            packed.append((C, rad))
         (Ca, ra), (Cb, rb) = packed
         d2 = sum((Ca[i][:, :, None] - Cb[i][:, None]) ** 2 for i in range(3))
         rr = ra[:, :, None] + rb[:, None]
@@ -410,7 +418,7 @@ class FirstPass:
     def _fine_boxes(self, Rg, pg, plan: Plan, s, m, w) -> np.ndarray:
         if len(s) == 0:
             return np.zeros(0, bool)
-        C = self._world_cover(Rg, pg, plan, m, s)                           # (3, N, K)
+        C = self._world_cover(Rg, pg, plan, m, s)                           # 3 x (N, K)
         x = [C[i] - plan.box_t[w][:, i, None] for i in range(3)]
         Rw, h = plan.box_R[w], plan.box_h[w]
         d2 = 0.0
