@@ -45,8 +45,9 @@ CHUNK = 1024
 
 @dataclass(frozen=True)
 class CollisionReport:
-    """``pairs``: every colliding pair ``(name_a, name_b, depth)`` (links by link name, objects by
-    scene name; depth in metres, the deepest contact between the two), sorted by name."""
+    """``pairs``: every colliding pair ``(name_a, name_b, depth)``: links by link name, objects by
+    scene name, a link before an object, two links (objects) in model (scene) order; depth in
+    metres, the deepest contact between the two. The list is sorted."""
 
     valid: bool
     pairs: list[tuple[str, str, float]] = field(default_factory=list)
@@ -294,7 +295,7 @@ class CollisionWorld:
         self._groups = rigid_groups(model.tree)
         self._add_links()
         self.default_place = self._add_objects()
-        #: link name -> body (objects: :meth:`object_body`)
+        #: link name -> body (objects: :meth:`object_body`, by name without case)
         self.link_body = {b.name: i for i, b in enumerate(self.bodies) if b.kind == "link"}
         self._object_index = {b.name.lower(): i for i, b in enumerate(self.bodies)
                               if b.kind == "object"}
@@ -376,6 +377,9 @@ class CollisionWorld:
                                        "itself placed on it"))
             frame, Tp, static = self._scene_pose(parent, seen + (o.name,))
             return frame, Tp @ T, static and not o.movable
+        robot = self.scene.robot
+        if robot is not None and o.parent.lower() == robot.name.lower():
+            return self.model.frame(self.model.tree.root), T, False     # the robot's base
         frame = self.model.frame(o.parent)
         if frame is None:
             raise SceneError(error("E569", f"object `{o.name}`: parent `{o.parent}` is no object "
@@ -454,7 +458,7 @@ class CollisionWorld:
 
     # -- one state ----------------------------------------------------------------------------
 
-    def _object_body(self, name: str, what: str) -> int:
+    def object_body(self, name: str, what: str = "object") -> int:
         b = self._object_index.get(str(name).lower())
         if b is None:
             raise SceneError(error("E567", f"{what}: `{name}` is no object (with a shape) of the "
@@ -466,7 +470,7 @@ class CollisionWorld:
         objects may touch their hand)."""
         place = dict(self.default_place)
         for name, T in (poses or {}).items():
-            b = self._object_body(name, "poses")
+            b = self.object_body(name, "poses")
             T = _matrix4(T, f"pose of `{name}`")
             if self.bodies[b].static:
                 raw = pose_matrix(self.scene.object(name).pose)
@@ -479,7 +483,7 @@ class CollisionWorld:
             place[b] = Placement(-1, T)
         allowed = self.allowed
         for name, value in (attached or {}).items():
-            b = self._object_body(name, "attached")
+            b = self.object_body(name, "attached")
             if self.bodies[b].static:
                 raise SceneError(error("E566", f"attached: `{name}` is static in the scene and "
                                        "cannot be held", None, "mark it movable in the scene"))
@@ -638,6 +642,8 @@ class CollisionWorld:
         Q = self._Q(Q)
         place, allowed = self.placements(poses, attached)
         out = np.ones(len(Q), bool)
+        if not len(Q):
+            return out
         for start, bad in self._invalid_states(Q, place, allowed, first_state_only=False):
             out[start + bad] = False
         return out
@@ -742,10 +748,11 @@ class CollisionWorld:
         Q = np.asarray(q, float)
         if single and Q.ndim == 1:
             Q = Q[None]
-        if Q.ndim != 2 or Q.shape[1] != self.model.dof or (single and len(Q) != 1):
+        if Q.ndim != 2 or Q.shape[1] != self.model.dof or (single and len(Q) != 1) \
+                or not np.isfinite(Q).all():
             want = f"({self.model.dof},)" if single else f"(B, {self.model.dof})"
             raise SceneError(error("E573", f"configuration of shape {np.shape(q)}; the robot "
-                                   f"`{self.model.tree.name}` needs {want}", None,
+                                   f"`{self.model.tree.name}` needs {want} finite values", None,
                                    "order: " + ", ".join(self.model.q_names[:6]) + ", ..."))
         return Q
 

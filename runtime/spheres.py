@@ -475,6 +475,8 @@ class PairTable:
         on no or more than two coordinates (or on a joint more than once, or on a prismatic
         joint below another moving joint)."""
         import fcl
+
+        from .collision import _or
         model = world.model
         if any(world.bodies[world.geoms[g].body].kind != "link" for g in (ga, gb)):
             return None
@@ -577,10 +579,6 @@ def _reach(geom, T: np.ndarray, o: np.ndarray) -> float:
         pts = c + h * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
     world_pts = pts @ T[:3, :3].T + T[:3, 3]
     return float(np.linalg.norm(world_pts - o, axis=1).max())
-
-
-def _or(a, b):
-    return a if a is not None else b
 
 
 #: candidate pairs per step of the cover stage (bounds its memory)

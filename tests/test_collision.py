@@ -36,6 +36,11 @@ def pr2():
 
 
 @pytest.fixture(scope="module")
+def pr2_mobile():
+    return _load("pr2", mobile_base=True)
+
+
+@pytest.fixture(scope="module")
 def panda():
     return _load("panda")
 
@@ -180,6 +185,22 @@ def test_object_parents_compose_poses(pr2):
     assert w.check(model.default_q).valid
 
 
+def test_an_object_on_the_robot_moves_with_the_base(pr2_mobile):
+    model, _ = pr2_mobile
+    # "robot" (the robot's name) as a parent: the base frame
+    bumper = SceneObject("bumper", Pose((1.0, 0.0, 0.3)), True, Shape("sphere", radius=0.05),
+                         parent="robot")
+    post = box("post", (2.0, 0.0, 0.3), (0.03, 0.03, 0.03))
+    sc = Scene("t", ((-3, 3), (-3, 3), (0, 2)),
+               RobotSpec(urdf=model.tree.path, mobile_base=True), (bumper, post))
+    from tmpc.runtime.collision import CollisionWorld
+    w = CollisionWorld(sc, model, pr2_mobile[1])
+    there = q_with(model, base_x=1.0)
+    assert w.check(model.default_q).valid
+    assert names(w.check(there)) == {("bumper", "post")}
+    assert list(w.check_batch(np.stack([model.default_q, there]))) == [True, False]
+
+
 def _stick():
     return box("stick", (0.0, 2.0, 0.3), (0.02, 0.02, 0.15), movable=True)
 
@@ -219,6 +240,8 @@ def test_motion_finds_the_first_collision_and_takes_the_short_way_round(pr2):
     assert not m.valid and 0.0 < m.t_first_collision < 1.0
     assert m.steps == 40
     assert names(m.report) == {("table", "stick")}
+    exact = world(pr2, table, _stick(), first_pass=False)
+    assert exact.check_motion(up, model.default_q, 0.01, attached=held) == m
     # the state just before the first collision is free
     before = up + (m.t_first_collision - 1 / m.steps) * (model.default_q - up)
     assert w.check(before, attached=held).valid
@@ -268,12 +291,12 @@ def test_covers_contain_their_geometry():
         assert (np.linalg.norm(pts - c, axis=1) <= R).all()
 
 
-def test_first_pass_never_frees_a_colliding_state(pr2):
+def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     """Thousands of random PR2 states with a mobile base among boxes, movable sticks and a held
     object: the batched path (pass + fcl on candidates) equals exact fcl on every state, and
     every colliding pair of every state is among the pass's candidates."""
     from tmpc.runtime.collision import CollisionWorld
-    model, fk = _load("pr2", mobile_base=True)
+    model, fk = pr2_mobile
     objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
                               0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
             for k in range(4)]
@@ -333,6 +356,26 @@ def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
         touching[i] = w._depth(table.ga, table.gb) is not None
     assert not (free & touching).any()
     assert touching.sum() > 50 and free.mean() > 0.6
+    # the Lipschitz bound itself, where it matters: half a cell away from grid points whose
+    # distance is small, the true (BVH) distance is at least the table's bound
+    near = np.nonzero((table.dist > 0) & (table.dist < 0.05))[0][:200]
+    idx = np.stack(np.unravel_index(near, tuple(table.n)), 1)
+    X = np.repeat(model.default_q[None], len(near), 0)
+    sign = rng.choice([-1.0, 1.0], (len(near), 2))
+    X[:, table.cols] = table.lo + idx * table.step + sign * table.step / 2
+    inside = ((X[:, table.cols] >= model.lower[table.cols])
+              & (X[:, table.cols] <= model.upper[table.cols])).all(1)
+    X, near = X[inside], near[inside]
+    bound = table.dist[near] - (table.rate * table.step / 2).sum()
+    fpos, local, R, p = w.frames(X, w.default_place)
+    true = np.empty(len(X))
+    for i in range(len(X)):
+        T = _world(R[i], p[i], fpos, local)
+        for g in (table.ga, table.gb):
+            w._set(g, T[w._dyn_pos[g]])
+        true[i] = fcl.distance(w.geoms[table.ga].obj, w.geoms[table.gb].obj,
+                               fcl.DistanceRequest(), fcl.DistanceResult())
+    assert len(X) > 50 and (true >= bound - 1e-9).all(), (true - bound).min()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -374,6 +417,8 @@ def test_user_errors_have_codes(pr2, tmp_path):
     assert code(lambda: world(pr2, srdf=srdf)) == "E570"
     assert code(lambda: world(pr2, tolerance=-0.01)) == "E572"
     assert code(lambda: w.check(model.default_q[:-1])) == "E573"
+    assert code(lambda: w.check_batch(np.full((2, model.dof), np.nan))) == "E573"
+    assert w.check_batch(np.zeros((0, model.dof))).shape == (0,)
     assert code(lambda: w.check(model.default_q, poses={"stick": np.eye(3)})) == "E573"
     assert code(lambda: world(pr2, box("flat", (2, 0, 0), (0.3, 0.0, 0.3)))) == "E574"
     assert code(lambda: w.check_motion(model.default_q, model.default_q, resolution=0.0)) \
@@ -432,7 +477,7 @@ def test_agrees_with_pinocchio_and_coal_on_random_states(name, request):
         gmodel.addGeometryObject(pin.GeometryObject(o.name, 0, pin.SE3(T[:3, :3], T[:3, 3]),
                                                     coal.Box(*(2 * np.array(o.shape.size)))))
         owner.append(o.name)
-    index = {**w.link_body, **{o.name: w._object_body(o.name, "") for o in objs}}
+    index = {**w.link_body, **{o.name: w.object_body(o.name, "") for o in objs}}
     n = len(owner)
     for i in range(n):
         for k in range(i + 1, n):
