@@ -96,13 +96,23 @@ def example_robot_data_dir() -> Path | None:
     return None
 
 
+def _search_path(rel: str) -> list[Path]:
+    """``$TMPC_MESH_PATH`` directories: by relative path, then by file name (e.g. to point a
+    tmit-star checkout, whose .obj meshes are not in its repository, at planet's copies)."""
+    out = []
+    for root in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep):
+        if root:
+            out += [Path(root) / rel, Path(root) / Path(rel).name]
+    return out
+
+
 def resolve_uri(uri: str, base: Path) -> list[Path]:
     """Candidate files for a URDF/mesh reference, most likely first (existing or not)."""
     if uri.startswith("file://"):
-        return [Path(uri[7:])]
+        return [Path(uri[7:]), *_search_path(Path(uri[7:]).name)]
     if not uri.startswith("package://"):
         p = Path(uri)
-        return [p] if p.is_absolute() else [base / p]
+        return ([p] if p.is_absolute() else [base / p]) + _search_path(uri)
     rest = uri[len("package://"):]
     pkg, _, sub = rest.partition("/")
     cands: list[Path] = []
@@ -115,7 +125,7 @@ def resolve_uri(uri: str, base: Path) -> list[Path]:
     erd = example_robot_data_dir()
     if erd is not None:
         cands.append(erd / sub if pkg == "example-robot-data" else erd / "robots" / pkg / sub)
-    cands += [base / sub, base.parent / sub]
+    cands += [base / sub, base.parent / sub, *_search_path(sub)]
     return cands
 
 
@@ -188,7 +198,8 @@ def _shape(g, base: Path, path: str, link: str, strict: bool) -> Shape | None:
                 return None
             looked = ", ".join(str(p) for p in resolve_uri(g.mesh.filename, base)[:6])
             raise SceneError(error("E562", f"{path}: mesh `{g.mesh.filename}` of link `{link}` "
-                                   "not found", None, f"looked in: {looked}"))
+                                   "not found", None, f"looked in: {looked}; set TMPC_MESH_PATH "
+                                   "to directories that hold the meshes"))
         scale = g.mesh.scale
         if scale is None:
             sc = (1.0, 1.0, 1.0)

@@ -5,6 +5,7 @@ model, jitted forward kinematics, the checked program when the configuration nam
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -72,12 +73,14 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
         raise InputError(error("E010", f"no such file: {path}", None))
     report = LoadReport()
     config = None
+    # $TMPC_MESH_PATH also serves object meshes (tmit-star's repository lacks its .obj files)
+    fallback = [d for d in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep) if d]
     if _is_config(path):
         config = load_config(path, report=report)
         scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                           strict_meshes=False)
+                           strict_meshes=False, mesh_fallback_dirs=fallback)
     else:
-        scene = load_scene(path, report=report)
+        scene = load_scene(path, report=report, mesh_fallback_dirs=fallback)
     world = World(scene, config, files=dict(report.files), warnings=list(report.warnings))
     if config is not None and with_program:
         from tmpc.lang.program import check_paths
