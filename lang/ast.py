@@ -13,7 +13,7 @@ from typing import Union
 
 from .source import Span
 
-_SPAN = dict(compare=False, repr=False, kw_only=True)
+_SPAN = dict(compare=False, repr=False, kw_only=True, default=None)   # None: synthesized
 
 
 @dataclass(frozen=True, slots=True)

@@ -121,6 +121,64 @@ class Evaluator:
             return all(results) if e.kind == "forall" else any(results)
         return self.call(e, env)
 
+    # ---- unsatisfaction distance (MATH.md §A), straight from the AST -----------------------
+    def distance(self, e: A.Expr, env: dict | None = None, neg: bool = False,
+                 and_mode: str = "l2") -> float:
+        """W of a condition (of its negation when ``neg``): 0 exactly where it holds."""
+        env = env or {}
+        d = lambda x, n=neg, v=env: self.distance(x, v, n, and_mode)   # noqa: E731
+        conj = (lambda ws: math.sqrt(sum(max(w, 0.0) ** 2 for w in ws))) if and_mode == "l2" \
+            else (lambda ws: max(max(w, 0.0) for w in ws))
+        if isinstance(e, A.Let):
+            inner = dict(env)
+            for b in e.bindings:
+                inner[b.name.key] = self.value(b.value, inner)
+            return self.distance(e.body, inner, neg, and_mode)
+        if isinstance(e, A.If):
+            return d(e.then if self.value(e.cond, env) else e.orelse)
+        if isinstance(e, A.ExprQuant):
+            ws = [self.distance(e.body, {**env, **b}, neg, and_mode)
+                  for b in self._bindings(e.params, e)]
+            all_of = (e.kind == "forall") != neg
+            if not ws:
+                return 0.0 if all_of else 1e6
+            return conj(ws) if all_of else min(ws)
+        if not isinstance(e, A.Call):
+            raise _fail("not a condition", e)
+        op, args = e.op.key, e.args
+        if op in ("and", "or"):
+            ws = [d(a) for a in args]
+            return conj(ws) if (op == "and") != neg else min(ws)
+        if op == "not":
+            return d(args[0], not neg)
+        if op == "implies":
+            ws = [d(args[0], not neg), d(args[1])]
+            return conj(ws) if neg else min(ws)
+        if op in ("<", "<=", ">", ">=", "="):
+            a, b = self.value(args[0], env), self.value(args[1], env)
+            if isinstance(a, Obj):
+                same = a.name.lower() == b.name.lower()
+                return 0.0 if same != neg else 1e6
+            if op == "=":
+                return max(self.tol - abs(a - b), 0.0) if neg else abs(a - b)
+            if op in (">", ">="):
+                a, b = b, a
+            return max(b - a, 0.0) if neg else max(a - b, 0.0)
+        if op == "inside":
+            p, box = _vec(self.value(args[0], env)), self.value(args[1], env)
+            below = [box.lower[i] - p[i] for i in range(3)] + [p[i] - box.upper[i] for i in range(3)]
+            if neg:
+                return min(max(-x, 0.0) for x in below)
+            return conj(below)
+        if self.scope is not None:
+            target = self.scope.helper(op) or self.scope.predicates.get(op)
+            body = getattr(target, "body", None) or getattr(target, "semantics", None)
+            if body is not None:
+                vals = [self.value(a, env) for a in args]
+                return self.distance(body, {q.name.key: v for q, v in zip(target.params, vals)},
+                                     neg, and_mode)
+        raise _fail(f"`{e.op.text}` is not a condition", e)
+
     def _bindings(self, params, node):
         if self.scope is None:
             raise _fail("`forall`/`exists` need the problem's objects; pass a domain and problem",

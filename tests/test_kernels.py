@@ -1,0 +1,171 @@
+"""JAX condition kernels against the independent numpy interpreter, finite differences, and the
+NaN-free-gradient requirement at the singular points."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES
+
+EXTRA = """
+    (fancy ?g - gripper ?c - cube ?s - surface :semantics
+      (let ((?p (position ?g)) (?r (support-region ?s)))
+        (and (inside ?p (grow ?r 0.05 0.05 0.4))
+             (or (<= (distance ?p (position ?c)) 0.3) (not (>= (z ?p) 0.5)))
+             (implies (= ?s tray) (<= (abs (- (yaw ?g) (atan2 (y ?c) (x ?c)))) 1.5))
+             (<= (norm (cross (z-axis ?g) (vec3 0 0 -1))) (sin 0.8))
+             (>= (dot (x-axis ?g) (rotate (orientation ?c) (vec3 1 0 0))) -2)
+             (if (= ?s bench) (<= (z (relative ?g ?c)) 1.0) (>= (roll ?g) -4))
+             (forall (?o - cube) (or (= ?o ?c) (>= (distance (position ?o) ?p) 0.02)))
+             (<= (joint panda_joint1) (max 2.5 (x (extent ?c)))))))
+    (touching ?g - gripper ?c - cube :semantics (= (distance (position ?g) (position ?c)) 0))
+    (away ?g - gripper ?c - cube :semantics (not (<= (distance (position ?g) (position ?c)) 0.1)))
+"""
+
+
+@pytest.fixture(scope="module")
+def tabletop(tmp_path_factory):
+    from tmpc.compiler.tables import build_world
+    from tmpc.runtime.world import load_world
+    d = tmp_path_factory.mktemp("tt")
+    domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
+    domain = domain.replace("  (:predicates\n", "  (:constants bench tray - surface)\n"
+                            "  (:predicates\n" + EXTRA, 1)
+    (d / "domain.pddl").write_text(domain)
+    problem = (EXAMPLES / "tabletop" / "problem.pddl").read_text()
+    (d / "problem.pddl").write_text(problem.replace("    bench tray - surface\n", ""))
+    (d / "scene.json").write_text((EXAMPLES / "tabletop" / "scene.json").read_text())
+    (d / "t.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
+                              'scene = "scene.json"\n')
+    world = load_world(d / "t.toml")
+    return world, build_world(world.scene, world.model, world.program.scope)
+
+
+CASES = [("reach", ("panda_hand_tcp", "red_cube")), ("over", ("panda_hand_tcp", "tray")),
+         ("fancy", ("panda_hand_tcp", "blue_cube", "tray")),
+         ("fancy", ("panda_hand_tcp", "red_cube", "bench")),
+         ("touching", ("panda_hand_tcp", "red_cube")), ("away", ("panda_hand_tcp", "blue_cube"))]
+
+
+def _kernel(tabletop, name, and_mode="l2"):
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.jaxgen import Options, condition_kernel
+    from tmpc.compiler.lower import Lowerer
+    world, kw = tabletop
+    scope = world.program.scope
+    low = Lowerer(scope).predicate(scope.predicates[name])
+    jax = configured()
+    return jax.jit(condition_kernel(low.body, kw, Options(and_mode=and_mode)))
+
+
+def _states(world, n, seed):
+    """Random configurations, with the red cube held by the hand in every other state."""
+    from tmpc.compiler.state import grasp, initial_state
+    rng = np.random.default_rng(seed)
+    st0 = initial_state(world.scene, world.model)
+    held = grasp(st0, world.model, "panda_hand_tcp", "red_cube", world.fk(st0.q))
+    for i in range(n):
+        q = rng.uniform(world.model.lower, world.model.upper)
+        base = held if i % 2 else st0
+        yield type(base)(q, base.poses, base.held, base.atoms)
+
+
+@pytest.mark.parametrize("and_mode", ["l2", "max"])
+@pytest.mark.parametrize("name, args", CASES)
+def test_kernel_matches_numpy_interpreter(tabletop, name, args, and_mode):
+    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.state import world_poses
+    from tmpc.lang import ast as A
+    from tmpc.runtime.evaluate import Evaluator
+    world, kw = tabletop
+    k = _kernel(tabletop, name, and_mode)
+    ids = np.array([kw.entity(a) for a in args])
+    call = A.Call(A.Name(name), tuple(A.ExprName(A.Name(a)) for a in args))
+    for st in _states(world, 40, 1):
+        frames = world.fk(st.q)
+        ev = Evaluator(world.scene, world.model, st.q, frames, world_poses(st, world.model, frames),
+                       world.program.scope)
+        truth, dist = k(*state_inputs(kw, st), ids)
+        assert float(dist) == pytest.approx(ev.distance(call, and_mode=and_mode), abs=1e-9)
+        assert bool(truth) == ev.value(call)
+
+
+@pytest.mark.parametrize("name, args", CASES)
+def test_gradients_match_finite_differences(tabletop, name, args):
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.jaxgen import state_inputs
+    jax = configured()
+    world, kw = tabletop
+    k = _kernel(tabletop, name)
+    ids = np.array([kw.entity(a) for a in args])
+    for st in list(_states(world, 6, 2)):
+        q, T, par = state_inputs(kw, st)
+        f = jax.jit(lambda q: k(q, T, par, ids)[1])
+        g = np.asarray(jax.grad(lambda q: k(q, T, par, ids)[1])(q))
+        assert np.isfinite(g).all()
+        h = 1e-6
+        fd = np.array([(float(f(q + h * e)) - float(f(q - h * e))) / (2 * h)
+                       for e in np.eye(len(q))])
+        if float(f(q)) > 1e-4:          # away from kinks of max(., 0)
+            assert np.allclose(g, fd, atol=1e-5), np.abs(g - fd).max()
+
+
+def test_gradients_are_finite_at_zero_distance_and_touching_contact(tabletop):
+    """At a satisfied state every distance is 0 and sqrt/norm sit at their singular point."""
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.state import initial_state
+    jax = configured()
+    world, kw = tabletop
+    st = initial_state(world.scene, world.model)
+    q, T, par = state_inputs(kw, st)
+    hand = np.asarray(world.fk(q).p[world.model.frame("panda_hand_tcp")])
+    T = T.copy()
+    T[[o.name for o in world.scene.objects].index("red_cube"), :3, 3] = hand   # exact contact
+    for name, args in [("touching", ("panda_hand_tcp", "red_cube")),
+                       ("over", ("panda_hand_tcp", "bench")),
+                       ("reach", ("panda_hand_tcp", "red_cube"))]:
+        k = _kernel(tabletop, name)
+        ids = np.array([kw.entity(a) for a in args])
+        truth, dist = k(q, T, par, ids)
+        g = jax.grad(lambda q: k(q, T, par, ids)[1])(q)
+        assert np.isfinite(np.asarray(g)).all(), name
+        batch = jax.vmap(jax.grad(lambda q: k(q, T, par, ids)[1]))(np.stack([q, q + 0.01]))
+        assert np.isfinite(np.asarray(batch)).all(), name
+        assert bool(truth) and float(dist) == 0.0, name   # all three hold at this state
+
+
+def test_truth_at_constructed_states(tabletop):
+    """Both outcomes of each predicate, at states built by hand."""
+    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.state import initial_state
+    world, kw = tabletop
+    st = initial_state(world.scene, world.model)
+    q, T, par = state_inputs(kw, st)
+    ids = lambda *names: np.array([kw.entity(n) for n in names])   # noqa: E731
+    over = _kernel(tabletop, "over")
+    assert bool(over(q, T, par, ids("panda_hand_tcp", "bench"))[0])
+    truth, dist = over(q, T, par, ids("panda_hand_tcp", "tray"))
+    assert not bool(truth) and float(dist) > 0.1
+    away = _kernel(tabletop, "away")
+    assert bool(away(q, T, par, ids("panda_hand_tcp", "blue_cube"))[0])
+    T2 = T.copy()
+    T2[[o.name for o in world.scene.objects].index("blue_cube"), :3, 3] = \
+        np.asarray(world.fk(q).p[world.model.frame("panda_hand_tcp")]) + 0.03
+    truth, dist = away(q, T2, par, ids("panda_hand_tcp", "blue_cube"))
+    assert not bool(truth) and float(dist) == pytest.approx(0.1 - np.sqrt(3) * 0.03)
+
+
+def test_unknown_entity_or_joint_is_a_clear_error(tabletop):
+    from tmpc.compiler import ir
+    from tmpc.compiler.jaxgen import KernelError, condition_kernel
+    _, kw = tabletop
+    bad = ir.op("le", (ir.Joint("elbow_of_nobody"), ir.Const(1.0)), ir.BOOL)
+    with pytest.raises(KernelError, match="elbow_of_nobody"):
+        condition_kernel(bad, kw)
+    bad = ir.op("le", (ir.op("component", (ir.op("position", (ir.op(
+        "pose", (ir.Entity("ghost"),), ir.TRANSFORM),), ir.VEC3), ir.Const(0.0)), ir.SCALAR),
+        ir.Const(1.0)), ir.BOOL)
+    with pytest.raises(KernelError, match="ghost"):
+        condition_kernel(bad, kw)
