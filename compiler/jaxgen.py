@@ -202,6 +202,45 @@ class _Emitter:
             return self.conj(parts) if neg else self.disj(parts)
         raise KernelError(f"{ir.show(n)} is not a condition")
 
+    # ---- residual vectors (for Gauss-Newton projection) --------------------------------------
+    def residuals(self, n: ir.Node, env: dict, neg: bool = False):
+        """A vector r with ``D = |r|`` for l2 conjunctions: one entry per violated leaf of the
+        conjunctive structure; a disjunction contributes its closest branch (padded to the
+        longest branch, selected with ``where``, so shapes are static)."""
+        jnp = self.jnp
+        if isinstance(n, ir.Op) and n.op == "not":
+            return self.residuals(n.args[0], env, not neg)
+        if isinstance(n, ir.Op) and n.op in ("and", "or", "implies"):
+            if n.op == "implies":
+                parts = [(n.args[0], not neg), (n.args[1], neg)]
+                conj = neg
+            else:
+                parts = [(x, neg) for x in n.args]
+                conj = (n.op == "and") != neg
+            vecs = [self.residuals(x, env, ng) for x, ng in parts]
+            return jnp.concatenate(vecs) if conj else self._closest(vecs, parts, env)
+        if isinstance(n, ir.Quant):
+            conj = (n.kind == "forall") != neg
+            vecs = [self.residuals(n.body, {**env, n.slot: e}, neg) for e in self._domain(n)]
+            if not vecs:
+                return jnp.zeros(1)
+            if conj:
+                return jnp.concatenate(vecs)
+            return self._closest(vecs, [(n.body, neg)] * len(vecs), env,
+                                 envs=[{**env, n.slot: e} for e in self._domain(n)])
+        if isinstance(n, ir.Op) and n.op == "inside" and not neg:
+            p, (lo, hi) = self.val(n.args[0], env), self.val(n.args[1], env)
+            return jnp.concatenate([jnp.maximum(lo - p, 0.0), jnp.maximum(p - hi, 0.0)])
+        return jnp.reshape(self.dist(n, env, neg), (1,))
+
+    def _closest(self, vecs, parts, env, envs=None):
+        jnp = self.jnp
+        envs = envs or [env] * len(vecs)
+        size = max(v.shape[0] for v in vecs)
+        padded = jnp.stack([jnp.pad(v, (0, size - v.shape[0])) for v in vecs])
+        d = jnp.stack([self.dist(x, e, ng) for (x, ng), e in zip(parts, envs)])
+        return padded[jnp.argmin(d)]
+
     def conj(self, parts):
         jnp = self.jnp
         w = jnp.stack([jnp.maximum(x, 0.0) for x in parts])
@@ -356,6 +395,18 @@ def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(
             frames = _static_frames(world)
         em = _Emitter(world, opts, frames, q, obj_T, obj_parent, args)
         return em.truth(node, {}), em.dist(node, {})
+
+    _check_buildable(node, world)
+    return kernel
+
+
+def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options()):
+    """``kernel(q, obj_T, obj_parent, args) -> r`` with ``|r| = D`` (l2), for Gauss-Newton."""
+    fk = make_fk(world.model) if world.model is not None else None
+
+    def kernel(q, obj_T, obj_parent, args):
+        frames = fk(q) if fk is not None else None
+        return _Emitter(world, opts, frames, q, obj_T, obj_parent, args).residuals(node, {})
 
     _check_buildable(node, world)
     return kernel
