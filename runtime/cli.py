@@ -75,10 +75,16 @@ def cmd_eval(args) -> int:
     return run_eval(args, _print_diagnostics)
 
 
+def cmd_sample(args) -> int:
+    from tmpc.runtime.sample_command import run_sample
+    return run_sample(args)
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
     "check": (cmd_check, "parse and check PDDL domains, problems and tmpc modules"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
     "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
+    "sample": (cmd_sample, "states where a predicate or an action's precondition holds"),
 }
 
 
@@ -116,6 +122,21 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--tolerance", type=float, default=0.0,
                        help="penetration depth (m) below which contacts are ignored")
         p.add_argument("--json", action="store_true", help="print JSON")
+    elif name == "sample":
+        p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
+                       "TOML, tmit-star spec JSON)")
+        g = p.add_mutually_exclusive_group(required=True)
+        g.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"))
+        g.add_argument("--action", nargs="+", metavar=("NAME", "ARG"))
+        p.add_argument("-n", type=int, default=1, help="how many states (default 1)")
+        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        p.add_argument("--state", metavar="S.json", help="objects and mode to sample in (state "
+                       "JSON); default: the initial state")
+        p.add_argument("--iterations", type=int, default=30, help="projection iterations")
+        p.add_argument("--max-starts", type=int, default=20000, help="give up after this many "
+                       "start configurations")
+        p.add_argument("--allow-collisions", action="store_true",
+                       help="accept states in collision")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",

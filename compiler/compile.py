@@ -1,0 +1,156 @@
+"""A checked program compiled against its world: lowered formulas and their lifted kernels.
+
+:class:`CompiledProgram` holds, per geometric predicate and per action schema, the IR of its
+geometric condition over ``Arg`` slots (predicate parameters / action parameters) and builds the
+JAX kernels lazily (one per lifted formula, never per ground atom). The discrete part of a
+precondition is the grounder's business; here an action's geometric condition is the conjunction
+of the geometric literals of its precondition's top-level ``and``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+from tmpc.lang import ast as A
+from tmpc.lang.checker import CheckedProgram
+from tmpc.lang.diagnostics import InputError, error
+from tmpc.lang.scene import Scene
+
+from . import ir
+from .fk import RobotModel
+from .jaxgen import Options, condition_kernel, residual_kernel
+from .lower import Lowerer
+from .tables import KernelWorld, build_world
+
+
+@dataclass(frozen=True)
+class Formula:
+    """A lifted geometric condition: ``body`` over ``Arg(i)`` = ``params[i]``."""
+
+    name: str
+    params: tuple[A.Typed, ...]
+    body: ir.Node
+
+
+@dataclass(eq=False)
+class CompiledProgram:
+    program: CheckedProgram
+    scene: Scene
+    model: RobotModel | None
+    options: Options = Options()
+    #: IR of externally defined (Lua) predicates, by lower-case name, supplied by the Lua tracer
+    external: dict[str, ir.Node] = field(default_factory=dict)
+    _kernels: dict = field(default_factory=dict, repr=False)
+
+    @cached_property
+    def world(self) -> KernelWorld:
+        return build_world(self.scene, self.model, self.program.scope)
+
+    # ---- formulas ----------------------------------------------------------------------------
+    def predicate(self, name: str) -> Formula:
+        decl = self.program.scope.predicates.get(name.lower())
+        if decl is None:
+            raise InputError(error("E582", f"unknown predicate `{name}`", None))
+        if decl.kind is not A.Kind.GEOMETRIC:
+            raise InputError(error("E582", f"`{name}` is a {decl.kind.value} predicate, not "
+                                   "geometric", None))
+        if decl.semantics is not None:
+            body = Lowerer(self.program.scope).predicate(decl).body
+        elif decl.name.key in self.external:
+            body = self.external[decl.name.key]
+        else:
+            raise InputError(error("E583", f"`{name}` has no semantics: it is implemented by a "
+                                   "Lua function that was not loaded", decl.span,
+                                   "give the Lua predicate file (the run configuration's "
+                                   "`semantics`)"))
+        return Formula(decl.name.text, decl.params, body)
+
+    def action(self, name: str) -> Formula:
+        """The geometric condition of an action schema's precondition."""
+        act = self.program.scope.actions.get(name.lower())
+        if act is None:
+            raise InputError(error("E582", f"unknown action `{name}`", None))
+        literals = []
+        for lit in _conjuncts(act.precondition):
+            atom, positive = (lit.part, False) if isinstance(lit, A.Not) else (lit, True)
+            if not isinstance(atom, A.Atom):
+                continue
+            decl = self.program.scope.predicates.get(atom.pred.key)
+            if decl is None or decl.kind is not A.Kind.GEOMETRIC:
+                continue
+            literals.append(self._bind(atom, act.params, positive))
+        if not literals:
+            body: ir.Node = ir.Const(1.0, ir.BOOL)
+        else:
+            body = literals[0] if len(literals) == 1 else ir.op("and", literals, ir.BOOL)
+        return Formula(act.name.text, act.params, body)
+
+    def _bind(self, atom: A.Atom, params, positive: bool) -> ir.Node:
+        """A predicate's body with its Arg slots renamed to the action's parameter slots."""
+        slots = {p.name.key: i for i, p in enumerate(params)}
+        inner = self.predicate(atom.pred.text)
+        mapping = {}
+        for i, term in enumerate(atom.args):
+            if isinstance(term, A.Var):
+                mapping[i] = ir.Arg(slots[term.name.key])
+            else:
+                mapping[i] = ir.Entity(term.name.text)
+        body = substitute(inner.body, mapping)
+        return body if positive else ir.op("not", (body,), ir.BOOL)
+
+    # ---- kernels -----------------------------------------------------------------------------
+    def kernels(self, formula: Formula):
+        """(condition kernel, residual kernel) of a formula, jitted once per formula."""
+        key = (formula.name, formula.body)
+        if key not in self._kernels:
+            from .jaxcfg import configured
+            jax = configured()
+            self._kernels[key] = (
+                jax.jit(condition_kernel(formula.body, self.world, self.options)),
+                residual_kernel(formula.body, self.world, self.options))
+        return self._kernels[key]
+
+    def bind_args(self, formula: Formula, names: list[str]):
+        """Entity ids for ground arguments, checked against the formula's parameter types."""
+        import numpy as np
+        if len(names) != len(formula.params):
+            raise InputError(error("E582", f"`{formula.name}` takes {len(formula.params)} "
+                                   f"arguments, given {len(names)}", None))
+        scope = self.program.scope
+        ids = []
+        for name, p in zip(names, formula.params):
+            e = self.world.entity(name)
+            if e is None:
+                raise InputError(error("E582", f"`{name}` is neither a scene object nor a robot "
+                                       "frame", None))
+            info = scope.objects.get(name.lower())
+            want = tuple(n.key for n in p.type.names) if p.type else ("object",)
+            if info is not None and not scope.compatible(info.types, want):
+                raise InputError(error("E582", f"`{name}` has type {info.types[0]}, but "
+                                       f"`{formula.name}` expects {'|'.join(want)} for "
+                                       f"`{p.name.text}`", None))
+            ids.append(e)
+        return np.asarray(ids, dtype=np.int64)
+
+
+def _conjuncts(f):
+    if f is None:
+        return []
+    if isinstance(f, A.And):
+        return [x for p in f.parts for x in _conjuncts(p)]
+    return [f]
+
+
+def substitute(node: ir.Node, mapping: dict[int, ir.Node]) -> ir.Node:
+    """Replace ``Arg(i)`` by ``mapping[i]`` everywhere."""
+    if isinstance(node, ir.Arg):
+        return mapping[node.index]
+    if isinstance(node, ir.Op):
+        return ir.Op(node.op, tuple(substitute(a, mapping) for a in node.args), node.vtype)
+    if isinstance(node, ir.If):
+        return ir.If(substitute(node.cond, mapping), substitute(node.then, mapping),
+                     substitute(node.orelse, mapping))
+    if isinstance(node, ir.Quant):
+        return ir.Quant(node.kind, node.slot, node.domain, substitute(node.body, mapping))
+    return node
