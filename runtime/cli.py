@@ -113,10 +113,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="a scene (JSON/XML) or run configuration (TOML, tmit-star spec JSON)")
         p.add_argument("--state", metavar="S.json", help="state JSON (- for stdin); default: "
                        "the initial state")
-        g = p.add_mutually_exclusive_group()
-        g.add_argument("--expr", metavar="EXPR", help="e.g. '(position l_gripper_tool_frame)'")
-        g.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"),
-                       help="a geometric predicate and its arguments")
+        p.add_argument("--expr", metavar="EXPR", help="e.g. '(position l_gripper_tool_frame)'")
+        p.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"),
+                       help="a geometric predicate and its arguments: truth, distance, gradient")
         p.add_argument("--collisions", action="store_true",
                        help="report validity and every colliding pair")
         p.add_argument("--tolerance", type=float, default=0.0,

@@ -47,24 +47,27 @@ def _read_state(world, path: str | None):
     return state_from_json(data, world.scene, world.model, base, path)
 
 
-def _predicate_expr(world, name: str, args: list[str]) -> A.Expr:
-    prog = world.program
-    if prog is None:
+def _predicate_kernel_eval(world, state, request: list[str]) -> dict:
+    """Truth, distance and gradient of a geometric predicate, from its compiled kernel."""
+    from tmpc.compiler.compile import CompiledProgram
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.runtime.sample_command import load_external
+    if world.program is None:
         raise InputError(error("E582", "--predicate needs a domain: pass a run configuration "
                                "(manifest TOML, planet TOML or tmit-star spec)", None))
-    decl = prog.scope.predicates.get(name.lower())
-    if decl is None:
-        raise InputError(error("E582", f"unknown predicate `{name}`", None))
-    if len(args) != len(decl.params):
-        raise InputError(error("E582", f"`{name}` takes {len(decl.params)} arguments, given "
-                               f"{len(args)}", None))
-    if decl.kind is not A.Kind.GEOMETRIC or decl.semantics is None:
-        what = "a discrete predicate" if decl.kind is not A.Kind.GEOMETRIC else \
-            "implemented in Lua (legacy); Lua predicates are evaluated by the compiler"
-        raise InputError(error("E582", f"`{name}` is {what}; `eval --predicate` evaluates "
-                               "geometric predicates with inline :semantics", None))
-    text = "(" + " ".join([name, *args]) + ")"
-    return parse_expr(text)[0]
+    compiled = CompiledProgram(world.program, world.scene, world.model,
+                               external=load_external(world))
+    formula = compiled.predicate(request[0])
+    ids = compiled.bind_args(formula, request[1:])
+    kernel, _ = compiled.kernels(formula)
+    q, obj_T, parent = state_inputs(compiled.world, state)
+    truth, dist = kernel(q, obj_T, parent, ids)
+    jax = configured()
+    grad = jax.grad(lambda q: kernel(q, obj_T, parent, ids)[1])(q) if len(q) else []
+    names = world.model.q_names if world.model is not None else ()
+    return {"value": bool(truth), "distance": float(dist),
+            "gradient": {n: float(g) for n, g in zip(names, grad)}}
 
 
 def run_eval(args, print_diags) -> int:
@@ -77,22 +80,30 @@ def run_eval(args, print_diags) -> int:
     poses = world_poses(state, world.model, frames)
     out: dict = {}
     text_lines = []
-    if args.expr is not None or args.predicate:
-        if args.expr is not None:
-            expr, _ = parse_expr(args.expr)
-            label = args.expr
-        else:
-            expr = _predicate_expr(world, args.predicate[0], args.predicate[1:])
-            label = "(" + " ".join(args.predicate) + ")"
+    if args.predicate:
+        out.update(_predicate_kernel_eval(world, state, args.predicate))
+        label = "(" + " ".join(args.predicate) + ")"
+        text_lines.append(f"{label} = {json.dumps(out['value'])}")
+        text_lines.append(f"  distance {out['distance']:.6g}")
+        grad = ", ".join(f"{k} {v:+.4g}" for k, v in out["gradient"].items() if abs(v) > 1e-12)
+        text_lines.append(f"  gradient (d distance / d q): {grad or 'zero'}")
+    if args.expr is not None:
+        expr, _ = parse_expr(args.expr)
+        label = args.expr
         ev = Evaluator(world.scene, world.model, state.q, frames, poses,
                        world.program.scope if world.program else None)
         try:
-            value = to_json_value(ev.value(expr))
+            raw = ev.value(expr)
+            value = to_json_value(raw)
+            if isinstance(raw, bool):
+                out["distance"] = ev.distance(expr)
         except TmpcError as exc:
             exc.files.setdefault(expr.span.path, SourceFile(expr.span.path, label))
             raise
         out["value"] = value
         text_lines.append(f"{label} = {json.dumps(value)}")
+        if "distance" in out:
+            text_lines.append(f"  distance {out['distance']:.6g}")
     if args.collisions:
         report = world.collision(args.tolerance).check(state.q, poses=state.poses,
                                                        attached=state.held)

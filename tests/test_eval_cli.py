@@ -39,6 +39,15 @@ def test_predicate_truth_changes_with_the_state(tmp_path):
     assert json.loads(r.stdout)["value"] is False
 
 
+def test_predicate_distance_and_gradient():
+    r = run(TABLETOP, "--predicate", "reach", "panda_hand_tcp", "red_cube", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["value"] is False and out["distance"] > 0.1
+    assert set(out["gradient"]) == {f"panda_joint{i}" for i in range(1, 8)}
+    assert any(abs(g) > 1e-3 for g in out["gradient"].values())
+
+
 def test_held_object_in_state_json_moves_with_the_hand():
     state = {"mode": {"held": {"red_cube": "panda_hand_tcp"}}, "joints": {"panda_joint1": 0.5}}
     r = run(TABLETOP, "--state", "-", "--expr", "(position red_cube)", "--json",
