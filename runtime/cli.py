@@ -80,9 +80,44 @@ def cmd_sample(args) -> int:
     return run_sample(args)
 
 
+def cmd_compile(args) -> int:
+    from tmpc.compiler.artifact import build_artifact
+    from tmpc.runtime.world import load_world
+    from tmpc.lang.diagnostics import InputError, error
+    if args.input is None:
+        if not (args.domain and args.problem and args.scene):
+            raise InputError(error("E585", "give a run configuration, or --domain, --problem "
+                                   "and --scene", None))
+        world = _world_from_parts(args)
+    else:
+        world = load_world(args.input)
+    if world.program is None:
+        raise InputError(error("E585", f"{args.input}: a scene alone cannot be compiled; give a "
+                               "run configuration that names the domain and problem", None))
+    manifest = build_artifact(world, args.output)
+    sys.stderr.write(f"wrote {args.output}: {len(manifest['kernels'])} kernels, "
+                     f"{len(manifest['members'])} members\n")
+    return EXIT_OK
+
+
+def _world_from_parts(args):
+    """A run manifest beside the output, pointing at the given files (absolute paths)."""
+    import tempfile
+    from pathlib import Path
+    from tmpc.runtime.world import load_world
+    lines = ["[problem]"] + [f'{k} = "{Path(v).resolve()}"' for k, v in
+                             (("domain", args.domain), ("problem", args.problem),
+                              ("scene", args.scene), ("semantics", args.semantics)) if v]
+    with tempfile.TemporaryDirectory() as d:
+        manifest = Path(d) / "run.toml"
+        manifest.write_text("\n".join(lines) + "\n")
+        return load_world(manifest)
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
     "check": (cmd_check, "parse and check PDDL domains, problems and tmpc modules"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
+    "compile": (cmd_compile, "compile a problem into a self-contained artifact (.tmpa)"),
     "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
     "sample": (cmd_sample, "states where a predicate or an action's precondition holds"),
 }
@@ -121,6 +156,14 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--tolerance", type=float, default=0.0,
                        help="penetration depth (m) below which contacts are ignored")
         p.add_argument("--json", action="store_true", help="print JSON")
+    elif name == "compile":
+        p.add_argument("input", metavar="INPUT", nargs="?",
+                       help="a run configuration (manifest TOML, planet TOML, tmit-star spec JSON)")
+        p.add_argument("-o", "--output", required=True, metavar="ART.tmpa")
+        p.add_argument("--domain")
+        p.add_argument("--problem")
+        p.add_argument("--scene")
+        p.add_argument("--semantics", help="legacy Lua predicate file")
     elif name == "sample":
         p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
                        "TOML, tmit-star spec JSON)")

@@ -21,6 +21,8 @@ class World:
     program: object | None = None            # CheckedProgram
     files: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)
+    #: (path, manifest) when loaded from a compiled artifact
+    artifact: tuple | None = None
 
     @cached_property
     def model(self):
@@ -68,9 +70,15 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
     spec JSON). A configuration's domain and problem are checked too."""
     from tmpc.lang.configs import load_config
     from tmpc.lang.scenes import LoadReport, load_scene
+    from tmpc.compiler.artifact import extract, is_artifact
     path = Path(path)
     if not path.exists():
         raise InputError(error("E010", f"no such file: {path}", None))
+    if is_artifact(path):
+        manifest, run = extract(path)      # checked; the world then comes from the extraction
+        world = load_world(run, with_program)
+        world.artifact = (path, manifest)
+        return world
     report = LoadReport()
     config = None
     # $TMPC_MESH_PATH also serves object meshes (tmit-star's repository lacks its .obj files)

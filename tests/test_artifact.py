@@ -1,0 +1,110 @@
+"""Artifacts: self-contained, verified on load, kernels equal to freshly built ones."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *args], capture_output=True,
+                          text=True, cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def artifact(tmp_path_factory):
+    d = tmp_path_factory.mktemp("art")
+    src = d / "tabletop"
+    shutil.copytree(EXAMPLES / "tabletop", src)
+    out = d / "tabletop.tmpa"
+    r = cli("compile", str(src / "tabletop.toml"), "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    shutil.rmtree(src)                       # a run from the artifact needs no source file
+    return out
+
+
+def test_artifact_runs_without_its_sources(artifact):
+    r = cli("eval", str(artifact), "--predicate", "over", "panda_hand_tcp", "bench", "--json",
+            "--collisions")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["value"] is True and out["valid"] is True
+    r = cli("sample", str(artifact), "--predicate", "reach", "panda_hand_tcp", "red_cube", "-n", "1")
+    assert r.returncode == 0, r.stderr
+
+
+def test_manifest_and_members(artifact):
+    with zipfile.ZipFile(artifact) as z:
+        manifest = json.loads(z.read("manifest.json"))
+        names = set(z.namelist())
+    assert manifest["format"] == "tmpc-artifact/1"
+    assert {k["name"] for k in manifest["kernels"]} == {"reach", "over", "pick", "place"}
+    assert set(manifest["members"]) | {"manifest.json"} == names
+    assert not any(n.endswith((".pkl", ".pickle", ".py")) for n in names)
+    assert manifest["layout"]["q"] == [f"panda_joint{i}" for i in range(1, 8)]
+
+
+def test_exported_kernels_equal_rebuilt_ones(artifact):
+    from tmpc.compiler.artifact import exported_kernels, read_manifest
+    from tmpc.compiler.compile import CompiledProgram
+    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.state import initial_state
+    from tmpc.runtime.world import load_world
+    world = load_world(artifact)
+    manifest, _ = read_manifest(artifact)
+    exported = exported_kernels(artifact, manifest)
+    assert set(exported) == {("predicate", "reach"), ("predicate", "over"), ("action", "pick"),
+                             ("action", "place")}
+    compiled = CompiledProgram(world.program, world.scene, world.model)
+    q, T, par = state_inputs(compiled.world, initial_state(world.scene, world.model))
+    rng = np.random.default_rng(0)
+    Q = rng.uniform(world.model.lower, world.model.upper, (16, world.model.dof))
+    f = compiled.predicate("reach")
+    kernel, _ = compiled.kernels(f)
+    ids = compiled.bind_args(f, ["panda_hand_tcp", "red_cube"])
+    truth, dist = exported[("predicate", "reach")](Q, T, par, np.tile(ids, (16, 1)))
+    for i in range(16):
+        t, d = kernel(Q[i], T, par, ids)
+        assert bool(t) == bool(truth[i]) and float(d) == pytest.approx(float(dist[i]), abs=1e-12)
+
+
+def test_bad_artifacts_are_rejected_clearly(artifact, tmp_path):
+    truncated = tmp_path / "t.tmpa"
+    truncated.write_bytes(artifact.read_bytes()[:5000])
+    foreign = tmp_path / "f.tmpa"
+    foreign.write_text("(define (domain d))")
+    tampered = tmp_path / "x.tmpa"
+    with zipfile.ZipFile(artifact) as zin, zipfile.ZipFile(tampered, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            zout.writestr(name, data + b" " if name == "src/domain.pddl" else data)
+    future = tmp_path / "v.tmpa"
+    with zipfile.ZipFile(artifact) as zin, zipfile.ZipFile(future, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "manifest.json":
+                data = data.replace(b"tmpc-artifact/1", b"tmpc-artifact/99")
+            zout.writestr(name, data)
+    for bad, fragment in [(truncated, "not a tmpc artifact"), (foreign, "not a tmpc artifact"),
+                          (tampered, "does not match its digest"), (future, "artifact format")]:
+        r = cli("eval", str(bad), "--expr", "(position red_cube)")
+        assert r.returncode == 1 and "E590" in r.stderr and fragment in r.stderr, r.stderr
+        assert "Traceback" not in r.stderr
+
+
+def test_failed_compile_leaves_no_file(tmp_path):
+    d = tmp_path / "p"
+    shutil.copytree(EXAMPLES / "tabletop", d)
+    (d / "domain.pddl").write_text((d / "domain.pddl").read_text().replace("(free ?g)", "(fre ?g)"))
+    out = tmp_path / "out.tmpa"
+    r = cli("compile", str(d / "tabletop.toml"), "-o", str(out))
+    assert r.returncode == 1 and "E200" in r.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == [d]
