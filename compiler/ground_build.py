@@ -30,9 +30,9 @@ from .ground_bind import FactIndex, anchors, bindings, checks, count, narrow
 from .ground_derived import Axiom, DerivedEvaluator, stratify
 from .ground_formula import (FALSE, TRUE, Condition, GAtom, GFormula, GGeo, GNot, atom_ids,
                              conj, disj, geo_atoms, relaxed_holds, remap)
-from .ground_reach import Relaxed
 from .ground_lift import (ExpansionTooLarge, LAnd, LCmp, LConst, LEq, LFormula, LLit,
                           LNumEffect, LOr, Lifter, literals, type_keys)
+from .ground_reach import Relaxed
 
 COST = "total-cost"
 _CMP = {"<": float.__lt__, "<=": float.__le__, "=": float.__eq__, ">=": float.__ge__,
@@ -361,7 +361,7 @@ class _Builder:
         for key, head, body in rules:
             body = remap(body, ids, reached) if reached[head] else FALSE
             if body is not FALSE:
-                axioms.append(Axiom.of(ids[head], body, strata[key]))
+                axioms.append(Axiom(ids[head], body, strata[key]))
         derived = frozenset(i for i, a in enumerate(atoms) if a.kind == "derived")
         evaluator = DerivedEvaluator(tuple(axioms), derived)
         goal_f = remap(goal, ids)
