@@ -95,8 +95,11 @@ class ConditionalEffect:
         return self._cond.holds(state, geo)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GroundAction:
+    """One ground action; ``id`` is its index in :attr:`GroundProblem.actions`. Compared and
+    hashed by identity (a problem has one object per ground action), so it is a cheap dict key."""
+
     id: int
     schema: str                 # the action's name as declared
     args: tuple[str, ...]       # object names as spelled, one per parameter
@@ -138,7 +141,7 @@ class GroundStats:
     seconds: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class GroundProblem:
     domain: str
     problem: str

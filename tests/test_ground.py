@@ -90,6 +90,21 @@ def test_bfs_finds_a_plan_that_replays(pair):
     assert gp.goal_relaxed_reachable
 
 
+@pytest.mark.parametrize("pair", [p for p in SYMBOLIC if p[0].parent.name != "blocksworld"],
+                         ids=_id)
+def test_kinematic_effects_follow_kinematic_atoms(pair):
+    gp = ground(load_checked(list(pair)))
+    kinds = {a.kind for a in gp.atoms}
+    assert "kinematic" in kinds and gp.geometric
+    for a in gp.actions:
+        links = {k.atom for k in a.kinematic if k.op == "link"}
+        unlinks = {k.atom for k in a.kinematic if k.op == "unlink"}
+        assert links == {i for i in a.adds if gp.atoms[i].kind == "kinematic"}
+        assert unlinks == {i for i in a.dels if gp.atoms[i].kind == "kinematic"}
+        for k in a.kinematic:
+            assert {k.parent, k.child} <= set(gp.atoms[k.atom].args)
+
+
 NAIVE = ["kitchen-adl/p01", "lab-inspection/p01", "lamp-grid/p02", "tower-derived/p01",
          "seating-equality/p01", "office-courier/p01", "power-grid/p01", "lift-forall/p01",
          "rover-costs/p02", "morning-zero-arity/p02", "parcel-untyped/p01"]
@@ -161,6 +176,28 @@ def test_clutter_14_plus_14_red():
     put = gp.find_action("putdown", "blue_stick_1", "table3", "l_gripper_tool_frame")
     assert [k.op for k in put.kinematic] == ["unlink"]
     assert pick.pre.is_conjunctive and pick.cost == 1.0
+
+
+def test_geometry_oracle_decides_geometric_literals():
+    gp = ground(load_checked([EXAMPLES / "tabletop/domain.pddl", EXAMPLES / "tabletop/problem.pddl"]))
+    pick = gp.find_action("pick", "panda_hand_tcp", "red_cube", "bench")
+    assert pick.pre_geometric == (("reach", ("panda_hand_tcp", "red_cube"), True),)
+    assert gp.applicable(gp.init, pick)                          # geometry possibly true
+    assert not gp.applicable(gp.init, pick, geo=lambda p, args: False)
+    seen = []
+    assert gp.applicable(gp.init, pick, geo=lambda p, args: seen.append((p, args)) or True)
+    assert seen == [("reach", ("panda_hand_tcp", "red_cube"))]
+    assert {(g.predicate, g.args) for g in gp.geometric} >= {("reach", ("panda_hand_tcp", "red_cube"))}
+
+
+def test_unreachable_goal_atoms_are_kept_and_reported():
+    gp = ground(_load("""(define (domain d) (:predicates (p) (q) (r) (s))
+      (:action a :parameters () :precondition (p) :effect (q))
+      (:action b :parameters () :precondition (s) :effect (r)))
+    (define (problem x) (:domain d) (:init (p)) (:goal (and (q) (r))))"""))
+    assert not gp.goal_relaxed_reachable and [a.name for a in gp.actions] == ["(a)"]
+    assert gp.atom_id("r") is not None and gp.atom_id("r") in gp.goal.pos
+    assert bfs(gp) is None
 
 
 def test_atom_names_keep_spelling_and_lookup_ignores_case():
