@@ -106,10 +106,37 @@ class CompiledProgram:
         if key not in self._kernels:
             from .jaxcfg import configured
             jax = configured()
+            frames = self.frames_for(formula)
             self._kernels[key] = (
-                jax.jit(condition_kernel(formula.body, self.world, self.options)),
-                residual_kernel(formula.body, self.world, self.options))
+                jax.jit(condition_kernel(formula.body, self.world, self.options, frames)),
+                residual_kernel(formula.body, self.world, self.options, frames))
         return self._kernels[key]
+
+    def frames_for(self, formula: Formula) -> set[int]:
+        """Robot frames a formula's kernel may read: frames among the objects its parameters can
+        take, the frames it names, and the frames that can hold an object (kinematic parents)."""
+        w, scope = self.world, self.program.scope
+        is_frame = lambda e: e is not None and e < w.n_frames   # noqa: E731
+        out: set[int] = set()
+        types = [tuple(n.key for n in p.type.names) if p.type else ("object",)
+                 for p in formula.params]
+        for decl in scope.predicates.values():
+            if decl.kinematic is not None:
+                parent = next(p for p in decl.params if p.name.key == decl.kinematic.parent.key)
+                types.append(tuple(n.key for n in parent.type.names) if parent.type
+                             else ("object",))
+        for want in types:
+            for info in scope.objects.values():
+                e = w.entity(info.name.text)
+                if is_frame(e) and scope.compatible(info.types, want):
+                    out.add(e)
+        for name in ir.entities_used(formula.body):
+            if is_frame(w.entity(name)):
+                out.add(w.entity(name))
+        for n in ir.walk(formula.body):
+            if isinstance(n, ir.Op) and n.op == "base":
+                out.add(w.entity(w.model.tree.root))
+        return out
 
     def bind_args(self, formula: Formula, names: list[str]):
         """Entity ids for ground arguments, checked against the formula's parameter types."""

@@ -189,13 +189,30 @@ def _mv(A, v):
     return (A * v[..., None, :]).sum(-1)
 
 
-def make_fk(model: RobotModel):
+def _prune(steps: list[_Step], wanted: set[int]) -> list[_Step]:
+    """The steps on the paths from the root to the wanted frames, in order."""
+    parent_step = {st.child: st for st in steps}
+    keep: set[int] = set()
+    for f in wanted:
+        while f in parent_step and f not in keep:
+            keep.add(f)
+            f = parent_step[f].parent
+    return [st for st in steps if st.child in keep]
+
+
+def make_fk(model: RobotModel, only=None):
     """``fk(q: (..., n)) -> Frames`` of every frame in ``model.frames`` (any leading batch
-    shape; not jitted: wrap with ``jax.jit`` as needed)."""
+    shape; not jitted: wrap with ``jax.jit`` as needed).
+
+    ``only`` (frame indices): compute just these frames and their ancestors; the others are NaN,
+    so a kernel that reads a frame it was not built for cannot give a silently wrong answer.
+    """
     from .jaxcfg import configured
     jax = configured()
     jnp = jax.numpy
     steps = _program(model)
+    if only is not None:
+        steps = _prune(steps, set(only))
     base = pose_matrix(model.base_pose)
     root = model.frames.index(model.tree.root)
     n_frames = len(model.frames)
@@ -222,6 +239,8 @@ def make_fk(model: RobotModel):
         q = jnp.asarray(q)
         Rs, ps = [None] * n_frames, [None] * n_frames
         Rs[root], ps[root] = root_frame(q)
+        nan_R = jnp.full(q.shape[:-1] + (3, 3), jnp.nan)
+        nan_p = jnp.full(q.shape[:-1] + (3,), jnp.nan)
         for st in steps:
             Rp, pp = Rs[st.parent], ps[st.parent]
             R = _mm(Rp, jnp.asarray(st.origin[:3, :3]))
@@ -238,6 +257,8 @@ def make_fk(model: RobotModel):
                     R = R + _mm(R, jnp.asarray(K)) * jnp.sin(v)[..., None, None] + \
                         _mm(R, jnp.asarray(K @ K)) * (1.0 - jnp.cos(v))[..., None, None]
             Rs[st.child], ps[st.child] = R, p
+        Rs = [nan_R if R is None else R for R in Rs]
+        ps = [nan_p if p is None else p for p in ps]
         return Frames(jnp.stack(Rs, -3), jnp.stack(ps, -2))
 
     return fk

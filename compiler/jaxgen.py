@@ -384,9 +384,14 @@ def _needs_frames(node: ir.Node) -> bool:
                for n in ir.walk(node))
 
 
-def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options()):
-    """``kernel(q, obj_T, obj_parent, args) -> (truth, distance)`` (not jitted)."""
-    fk = make_fk(world.model) if world.model is not None else None
+def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
+                     frames=None):
+    """``kernel(q, obj_T, obj_parent, args) -> (truth, distance)`` (not jitted).
+
+    ``frames``: the robot frame ids this kernel may read (its possible arguments, the constants it
+    names and the frames that may hold objects); forward kinematics is limited to their chains.
+    """
+    fk = make_fk(world.model, frames) if world.model is not None else None
     frames_needed = fk is not None and _needs_frames(node)
 
     def kernel(q, obj_T, obj_parent, args):
@@ -400,9 +405,10 @@ def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(
     return kernel
 
 
-def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options()):
+def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
+                    frames=None):
     """``kernel(q, obj_T, obj_parent, args) -> r`` with ``|r| = D`` (l2), for Gauss-Newton."""
-    fk = make_fk(world.model) if world.model is not None else None
+    fk = make_fk(world.model, frames) if world.model is not None else None
 
     def kernel(q, obj_T, obj_parent, args):
         frames = fk(q) if fk is not None else None
