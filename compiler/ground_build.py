@@ -341,6 +341,7 @@ class _Builder:
 
     # ---- finalize ---------------------------------------------------------------------------
     def finish(self, cands, rules, strata, init, goal, t0) -> GroundProblem:
+        self.relax.grow()
         reached, fired = self.relax.reached, self.relax.fired
         keep = {i for i in range(len(self.keys)) if reached[i]} | set(atom_ids(goal))
         pred_order = {k: i for i, k in enumerate(self.sc.predicates)}

@@ -33,12 +33,13 @@ class Relaxed:
         self._watch: dict[int, list[int]] = {}
         self._queue: list[int] = []
 
-    def _grow(self) -> None:
+    def grow(self) -> None:
+        """Make ``reached`` cover every atom interned so far (``keys`` grows while grounding)."""
         if len(self.reached) < len(self.keys):
             self.reached.extend(bytes(len(self.keys) - len(self.reached)))
 
     def reach(self, atom: int) -> None:
-        self._grow()
+        self.grow()
         if not self.reached[atom]:
             self.reached[atom] = 1
             self.count += 1
@@ -50,7 +51,7 @@ class Relaxed:
 
         A disjunctive formula with a small DNF becomes one conjunctive child unit per disjunct
         (counted down instead of re-evaluated); the unit fires with its first child."""
-        self._grow()
+        self.grow()
         u = len(self._units)
         self._units.append((formula, adds))
         self.fired.append(0)

@@ -200,6 +200,14 @@ def test_unreachable_goal_atoms_are_kept_and_reported():
     assert bfs(gp) is None
 
 
+def test_problem_without_actions_or_init():
+    gp = ground(_load("""(define (domain d) (:predicates (p ?x)) (:action a :parameters (?x)
+      :precondition (p ?x) :effect (not (p ?x))))
+    (define (problem x) (:domain d) (:objects k) (:init) (:goal (p k)))"""))
+    assert gp.actions == () and gp.init == 0 and gp.atom_id("p", "k") == 0
+    assert not gp.goal_satisfied(gp.init) and not gp.goal_relaxed_reachable
+
+
 def test_atom_names_keep_spelling_and_lookup_ignores_case():
     gp = ground(load_checked([FIXTURES / "classical/office-courier/domain.pddl",
                               FIXTURES / "classical/office-courier/p01.pddl"]))
