@@ -143,7 +143,26 @@ def _export_kernel(compiled, formula) -> bytes:
     exp = export.export(batched)(
         jax.ShapeDtypeStruct((b, n), jnp.float64), jax.ShapeDtypeStruct((M, 4, 4), jnp.float64),
         jax.ShapeDtypeStruct((M,), jnp.int64), jax.ShapeDtypeStruct((b, k), jnp.int64))
-    return bytes(exp.serialize(vjp_order=1))
+    return bytes(exp.serialize())
+
+
+def _cached_export(compiled, formula, kind: str, sources: str) -> bytes:
+    """Exported kernels are cached by (sources, formula, tmpc and JAX versions): recompiling an
+    unchanged problem reuses them (exporting traces and lowers every kernel, which dominates)."""
+    from .ir import show
+    from .jaxcfg import cache_dir
+    key = _sha(json.dumps([sources, kind, formula.name, show(formula.body),
+                           _version("tmpc"), _version("jax"), repr(compiled.options)]).encode())
+    path = cache_dir().parent / "exports" / f"{key}.jaxexport"
+    if path.is_file():
+        return path.read_bytes()
+    data = _export_kernel(compiled, formula)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, data)
+    except OSError:
+        pass          # a read-only cache: fine, just slower next time
+    return data
 
 
 def build_artifact(world, out: str | Path) -> dict:
@@ -173,9 +192,10 @@ def build_artifact(world, out: str | Path) -> dict:
     for act in prog.domain.actions:
         kernels.append(("action", compiled.action(act.name.text)))
     entries = []
+    sources = _sha(json.dumps({k: _sha(v) for k, v in sorted(members.files.items())}).encode())
     for kind, formula in kernels:
         name = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
-                           _export_kernel(compiled, formula))
+                           _cached_export(compiled, formula, kind, sources))
         entries.append({"kind": kind, "name": formula.name, "member": name,
                         "params": [p.name.text for p in formula.params]})
     model = world.model
