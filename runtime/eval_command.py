@@ -31,7 +31,7 @@ def parse_expr(text: str) -> tuple[A.Expr, SourceFile]:
     return value, src
 
 
-def _read_state(world, path: str | None):
+def read_state(world, path: str | None):
     from tmpc.compiler.state import initial_state, state_from_json
     base = initial_state(world.scene, world.model)
     if path is None:
@@ -75,7 +75,7 @@ def run_eval(args, print_diags) -> int:
     from tmpc.runtime.world import load_world
     from tmpc.compiler.state import world_poses
     world = load_world(args.input)
-    state = _read_state(world, args.state)
+    state = read_state(world, args.state)
     frames = world.fk(state.q) if world.fk is not None else None
     poses = world_poses(state, world.model, frames)
     out: dict = {}

@@ -24,7 +24,7 @@ def run_sample(args) -> int:
     from tmpc.compiler.jaxgen import state_inputs
     from tmpc.compiler.project import make_projector, uniform_starts
     from tmpc.compiler.state import state_to_json
-    from tmpc.runtime.eval_command import _read_state
+    from tmpc.runtime.eval_command import read_state
     from tmpc.runtime.world import load_world
     world = load_world(args.input)
     if world.program is None:
@@ -38,7 +38,7 @@ def run_sample(args) -> int:
     formula = compiled.action(name) if args.action else compiled.predicate(name)
     ids = compiled.bind_args(formula, names)
     kernel, _ = compiled.kernels(formula)
-    state = _read_state(world, args.state)
+    state = read_state(world, args.state)
     q0, obj_T, parent = state_inputs(compiled.world, state)
     model = world.model
     project = make_projector(kernel, model.lower, model.upper, iterations=args.iterations)
