@@ -24,11 +24,7 @@ SCALAR, VEC3, QUAT, BOX, TRANSFORM, BOOL, ENTITY = \
 
 @dataclass(frozen=True, slots=True)
 class Node:
-    """Base class; every node has a value ``type``."""
-
-    @property
-    def type(self) -> str:   # pragma: no cover - overridden
-        raise NotImplementedError
+    """Base class of IR nodes; each subclass has a ``type`` property (its value type)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,6 +139,7 @@ OPS = {
     "rotate": "(quat, vec3) -> vec3", "relative": "(transform a, transform b) -> vec3",
     "rpy": "transform|quat -> vec3", "quat_of": "quat passthrough",
     "extent": "entity -> vec3 (static)", "support": "entity -> box (world frame, enclosing)",
+    "support_local": "entity -> box in the entity's own frame (static; legacy Lua surfaces)",
     "base": "-> transform of the robot root",
     "same": "(entity, entity) -> bool, static identity",
     # boxes
