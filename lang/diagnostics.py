@@ -108,6 +108,10 @@ class SceneError(TmpcError):
     """A scene, robot (URDF), mesh or run configuration is missing or malformed."""
 
 
+class LuaError(TmpcError):
+    """A legacy Lua predicate file fails to load or run (syntax, runtime error, sandbox, limits)."""
+
+
 # --------------------------------------------------------------------------------------------
 # Rendering
 
