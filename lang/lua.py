@@ -125,6 +125,10 @@ class _Sandbox:
         try:
             out = getattr(self.api, fn)(*args)
         except self.lupa.LuaMemoryError:
+            try:
+                self.api.reset()
+            except self.lupa.LuaError:          # pragma: no cover - still out of memory
+                pass
             return ("memory", "not enough memory", None)
         except self.lupa.LuaError as e:                       # pragma: no cover - a core bug
             return ("error", str(e).split("\n", 1)[0], None)

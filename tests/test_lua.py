@@ -202,6 +202,16 @@ def test_memory_limit(tmp_path):
     assert ei.value.diagnostics[0].code == "E705"
 
 
+def test_memory_limit_in_a_predicate_leaves_the_module_usable(tmp_path):
+    path = tmp_path / "hog.lua"
+    path.write_text("function hog(x)\n  local t = {}\n  for i = 1, 1e8 do t[i] = {i} end\n"
+                    "  return True()\nend\nfunction fine(x) return Le(x.pz, 1) end\n")
+    module = load_lua_predicates(path, limits=LuaLimits(memory=8 * 2**20))
+    res = trace_module(module, {"hog": 1, "fine": 1}, strict=False)
+    assert [d.code for d in res.diagnostics] == ["E705"]
+    assert ir.show(res.traced["fine"]) == f"(le {P(0, 2)} 1.0)"
+
+
 def test_syntax_error_reports_file_and_line(tmp_path):
     path = tmp_path / "syn.lua"
     path.write_text("function on(x, y)\n  return And(Le(x.pz, y.pz),\nend\n")

@@ -113,6 +113,10 @@ local function guarded(track, f, ...)
 end
 
 local V = assert(load(values_src, "=tmpc/values.lua", "t", _ENV))(fail, untraceable)
+
+-- After an error that escaped the guard (memory): no hook, no mode left behind.
+function core.reset() sethook(); V.begin("plain") end
+
 local TMATH = V.math
 
 -------------------------------------------------------------------------------------------------
