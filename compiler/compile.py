@@ -57,6 +57,12 @@ class CompiledProgram:
                                    "geometric", None))
         if decl.semantics is not None:
             body = Lowerer(self.program.scope).predicate(decl).body
+        elif isinstance(self.external.get(decl.name.key), _Untraceable):
+            bad = self.external[decl.name.key]
+            raise InputError(error("E586", f"Lua predicate `{name}` could not be traced "
+                                   f"({bad.reason}); kernels cannot call its direct evaluation "
+                                   "yet", decl.span, "avoid comparisons and branches on object "
+                                   "fields inside the function (see docs/lua.md)"))
         elif decl.name.key in self.external:
             body = self.external[decl.name.key]
         else:
@@ -159,6 +165,30 @@ class CompiledProgram:
                                        f"`{p.name.text}`", None))
             ids.append(e)
         return np.asarray(ids, dtype=np.int64)
+
+
+def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir.Node]:
+    """IR of the program's Lua-defined geometric predicates, traced from ``semantics``.
+
+    A predicate tracing cannot capture (data-dependent branches) is evaluated directly by the Lua
+    fallback; kernels cannot call it yet, so asking for its kernel is a clear error (E586).
+    """
+    from tmpc.lang.lua import load_lua_predicates
+    from .lua_trace import trace_module
+    decls = {d.name.text: d for d in program.domain.predicates if d.external}
+    if not decls:
+        return {}
+    result = trace_module(load_lua_predicates(semantics), decls)
+    out = {name.lower(): node for name, node in result.traced.items()}
+    for name, fb in result.fallbacks.items():
+        out.setdefault(name.lower(), _Untraceable(name, getattr(fb, "reason", "")))
+    return out
+
+
+@dataclass(frozen=True)
+class _Untraceable:
+    name: str
+    reason: str
 
 
 def _conjuncts(f):

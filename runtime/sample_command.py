@@ -69,8 +69,5 @@ def load_external(world) -> dict:
     cfg = world.config
     if cfg is None or cfg.semantics is None:
         return {}
-    try:
-        from tmpc.compiler.lua_trace import external_predicates
-    except ImportError:
-        return {}
+    from tmpc.compiler.compile import external_predicates
     return external_predicates(cfg.semantics, world.program)
