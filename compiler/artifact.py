@@ -124,7 +124,16 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
         if o.parent is not None:
             obj["parent"] = o.parent
         objects.append(obj)
-    pairs = [list(p) for p in (*scene.allowed_collisions, *allowed)]
+    # Legacy blocklists name links some URDFs lack (their planners skipped those); the native
+    # scene format is strict, so only pairs naming real things are carried over.
+    known = {o.name.lower() for o in scene.objects}
+    if scene.robot is not None:
+        from tmpc.lang.robot import load_urdf
+        tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        known |= {scene.robot.name.lower()} | {lk.name.lower() for lk in tree.links} | \
+            {j.name.lower() for j in tree.joints}
+    pairs = [list(p) for p in (*scene.allowed_collisions, *allowed)
+             if p[0].lower() in known and p[1].lower() in known]
     return {"format": "tmpc-scene/1", "bounds": [list(b) for b in scene.bounds],
             "robot": robot, "objects": objects, "allowed_collisions": pairs}
 
