@@ -197,23 +197,66 @@ def build_programs(ws: Workspace, parsed: list[ParsedFile],
     return programs
 
 
-#: Inputs this version does not read yet, by suffix (scenes, configs and Lua come with the
-#: world-model and compiler front ends).
-NOT_YET = {".lua": "Lua predicate files", ".toml": "run configs", ".json": "scene/spec JSON files",
-           ".xml": "XML scenes", ".urdf": "URDF files"}
+#: Non-PDDL inputs `tmpc check` also reads, by suffix; their loaders are imported on demand
+#: (lupa for Lua, yourdfpy for URDF), so checking PDDL alone stays light.
+WORLD_SUFFIXES = (".lua", ".toml", ".json", ".xml", ".urdf")
+
+
+def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
+    """Load a Lua file, run configuration, scene or URDF the way a run would; its problems
+    become diagnostics."""
+    from .diagnostics import TmpcError
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".lua":
+            from .lua import load_lua_predicates
+            load_lua_predicates(path)
+        elif suffix == ".urdf":
+            from .robot import load_urdf
+            load_urdf(path.resolve())
+        elif suffix == ".toml" or (suffix == ".json" and _is_spec(path)):
+            from .configs import load_config
+            from .scenes import LoadReport
+            report = LoadReport()
+            load_config(path, report=report)
+            ws.files.update(report.files)
+            return list(report.warnings)
+        else:
+            from .scenes import LoadReport, load_scene
+            report = LoadReport()
+            load_scene(path, report=report)
+            ws.files.update(report.files)
+            return list(report.warnings)
+    except TmpcError as exc:
+        ws.files.update(exc.files)
+        return list(exc.diagnostics)
+    return []
+
+
+def _is_spec(path: Path) -> bool:
+    import json
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and "initial_scene" in data
 
 
 def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckReport:
-    """Parse and check files. Raises :class:`InputError` only for unreadable files."""
+    """Parse and check files. Raises :class:`InputError` only for unreadable PDDL files."""
     ws = ws or Workspace()
+    world_diags: list[Diagnostic] = []
+    pddl = []
     for p in paths:
-        what = NOT_YET.get(Path(p).suffix.lower())
-        if what is not None:
-            raise InputError(error("E012", f"{p}: this version of `tmpc check` reads PDDL domains, "
-                                   f"problems and modules; {what} are not checked yet", None,
-                                   "pass .pddl/.tmpc files"))
-    parsed = [ws.load(p) for p in paths]
-    return check_parsed(ws, parsed)
+        if Path(p).suffix.lower() in WORLD_SUFFIXES:
+            if not Path(p).is_file():
+                raise InputError(error("E010", f"no such file: {p}", None))
+            world_diags += _check_world_file(Path(p), ws)
+        else:
+            pddl.append(p)
+    report = check_parsed(ws, [ws.load(p) for p in pddl])
+    report.diagnostics[:0] = world_diags
+    return report
 
 
 def check_parsed(ws: Workspace, parsed: list[ParsedFile]) -> CheckReport:

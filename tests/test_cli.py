@@ -49,9 +49,10 @@ def test_missing_file_and_usage_errors(tmp_path):
     assert run("check").returncode == 2
     assert run("frobnicate").returncode == 2
     lua = tmp_path / "preds.lua"
-    lua.write_text("function at(m, x) return True() end")
+    lua.write_text("function at(m, x)\n  return True(\nend\n")
     r = run("check", str(lua))
-    assert r.returncode == 1 and "E012" in r.stderr and "Traceback" not in r.stderr
+    assert r.returncode == 1 and "E70" in r.stderr and "preds.lua:3" in r.stderr
+    assert "Traceback" not in r.stderr
     binary = tmp_path / "bin.pddl"
     binary.write_bytes(b"\xff\xfe\x00(")
     r = run("check", str(binary))
@@ -65,6 +66,17 @@ def test_check_imports_nothing_heavy():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]"
+
+
+def test_check_reads_scenes_configs_and_lua(tmp_path):
+    tabletop = EXAMPLES / "tabletop"
+    r = run("check", str(tabletop / "scene.json"), str(tabletop / "tabletop.toml"),
+            str(tabletop / "domain.pddl"), str(tabletop / "problem.pddl"))
+    assert r.returncode == 0, r.stderr
+    bad = tmp_path / "scene.json"
+    bad.write_text((tabletop / "scene.json").read_text().replace('"movable"', '"moveable"', 1))
+    r = run("check", str(bad))
+    assert r.returncode == 1 and "E504" in r.stderr and "did you mean" in r.stderr
 
 
 def test_problem_alone_finds_its_domain_beside_it():
