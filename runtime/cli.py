@@ -115,7 +115,7 @@ def _world_from_parts(args):
 
 
 COMMANDS: dict[str, tuple[Callable, str]] = {
-    "check": (cmd_check, "parse and check PDDL domains, problems and tmpc modules"),
+    "check": (cmd_check, "check PDDL domains, problems and modules; scenes, configs, URDF, Lua"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
     "compile": (cmd_compile, "compile a problem into a self-contained artifact (.tmpa)"),
     "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
