@@ -30,7 +30,9 @@ class World:
         from tmpc.lang.robot import load_urdf
         if self.scene.robot is None:
             return None
-        tree = load_urdf(self.scene.robot.urdf, Path(self.scene.path).parent)
+        # Kinematics needs no meshes: a checkout without them (tmit-star's repository) can still
+        # be evaluated; `collision` insists on them.
+        tree = load_urdf(self.scene.robot.urdf, Path(self.scene.path).parent, strict_meshes=False)
         return build_robot_model(tree, self.scene.robot, self.scene.bounds)
 
     @cached_property
@@ -48,8 +50,15 @@ class World:
         return ()
 
     def collision(self, tolerance: float = 0.0):
+        from tmpc.compiler.fk import build_robot_model
+        from tmpc.lang.robot import load_urdf
         from tmpc.runtime.collision import CollisionWorld
-        return CollisionWorld(self.scene, self.model, fk=self.fk, tolerance=tolerance,
+        model = self.model
+        if model is not None:
+            # every link mesh must be there to check collisions (E562 names a missing one)
+            tree = load_urdf(self.scene.robot.urdf, Path(self.scene.path).parent)
+            model = build_robot_model(tree, self.scene.robot, self.scene.bounds)
+        return CollisionWorld(self.scene, model, fk=self.fk, tolerance=tolerance,
                               allowed=self.allowed_pairs())
 
 

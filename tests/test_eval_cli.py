@@ -82,3 +82,23 @@ def test_bad_state_file(tmp_path):
 
 def test_usage_without_a_question():
     assert run(TABLETOP).returncode == 2
+
+
+def test_missing_robot_meshes_block_collisions_but_not_kinematics(tmp_path):
+    (tmp_path / "arm.urdf").write_text("""<robot name="arm">
+  <link name="base"/>
+  <link name="tip"><collision><geometry><mesh filename="meshes/tip.stl"/></geometry></collision>
+  </link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+    <origin xyz="0 0 1"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>""")
+    (tmp_path / "scene.json").write_text(json.dumps({
+        "format": "tmpc-scene/1", "bounds": [[-2, 2], [-2, 2], [0, 2]],
+        "robot": {"urdf": "arm.urdf"}, "objects": []}))
+    r = run(str(tmp_path / "scene.json"), "--expr", "(position tip)", "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["value"] == pytest.approx([0.0, 0.0, 1.0])
+    r = run(str(tmp_path / "scene.json"), "--collisions")
+    assert r.returncode == 1 and "E562" in r.stderr and "tip.stl" in r.stderr
+
