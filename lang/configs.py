@@ -408,3 +408,20 @@ def load_config(path: str | Path, fmt: str | None = None,
         raise SceneError(error("E503", f"unknown configuration format \"{fmt}\"", None, join_hints(
             did_you_mean(fmt, CONFIG_LOADERS), "the formats are " + ", ".join(CONFIG_LOADERS))))
     return CONFIG_LOADERS[fmt](source, report)
+
+
+def is_run_config(path: str | Path) -> bool:
+    """A run configuration (TOML, or a tmit-star spec JSON with ``initial_scene``) rather than a
+    scene. Unreadable or malformed files answer False: the scene loader then reports them."""
+    import json
+    path = Path(path)
+    if path.suffix.lower() == ".toml":
+        return True
+    if path.suffix.lower() != ".json":
+        return False
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and "initial_scene" in data
+

@@ -205,6 +205,7 @@ WORLD_SUFFIXES = (".lua", ".toml", ".json", ".xml", ".urdf")
 def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
     """Load a Lua file, run configuration, scene or URDF the way a run would; its problems
     become diagnostics."""
+    from .configs import is_run_config
     from .diagnostics import TmpcError
     suffix = path.suffix.lower()
     try:
@@ -214,7 +215,7 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
         elif suffix == ".urdf":
             from .robot import load_urdf
             load_urdf(path.resolve())
-        elif suffix == ".toml" or (suffix == ".json" and _is_spec(path)):
+        elif is_run_config(path):
             from .configs import load_config
             from .scenes import LoadReport
             report = LoadReport()
@@ -231,15 +232,6 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
         ws.files.update(exc.files)
         return list(exc.diagnostics)
     return []
-
-
-def _is_spec(path: Path) -> bool:
-    import json
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
-        return False
-    return isinstance(data, dict) and "initial_scene" in data
 
 
 def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckReport:

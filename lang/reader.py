@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 
 from . import ast as A
 from . import symbols as K
-from .diagnostics import Diagnostic, DiagnosticSink, Related, error, warning
-from .reader_common import describe, head, is_keyword, is_sym, is_var, suggest, sym
+from .diagnostics import Diagnostic, DiagnosticSink, Related, warning
+from .reader_common import describe, head, is_keyword, is_sym, suggest, sym
 from .reader_formulas import FormulaReader
 from .sexpr import SAtom, SExpr, SexprDoc, SList, parse_sexpr
 from .source import SourceFile, Span
@@ -156,7 +156,7 @@ class Reader(FormulaReader):
                                                    "predicates", "functions", "includes",
                                                    "defines", "actions", "derived")}
         raw_preds: list[tuple[A.PredicateDecl, set[str]]] = []
-        for kw, sec in self._sections(x, allowed[1:] and ("",) + allowed[1:], PROBLEM_ONLY, form):
+        for kw, sec in self._sections(x, allowed, PROBLEM_ONLY, form):
             body = sec.items[1:]
             if kw == ":requirements":
                 parts["requirements"] += self.requirements(body)

@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator, NoReturn
 
 from .diagnostics import Diagnostic, Related, SceneError, error, warning
-from .jsonpos import JsonDoc, pointer
-from .scene import Box, Origin, Pose, Quat, RobotSpec, SceneObject, Vec3
+from .jsonpos import JsonDoc, parse_json, pointer
+from .scene import Box, Origin, Pose, Quat, RobotSpec, Scene, SceneObject, Vec3
 from .source import SourceFile, Span
 
 #: |norm - 1| allowed for a quaternion (it is normalised) and for R Rᵀ - I of a rotation matrix
@@ -708,3 +708,16 @@ def load_allowed_pairs(path: str | Path, report: LoadReport | None = None
             out.append((a, b))
     r.finish()
     return tuple(out)
+
+
+def read_json_scene(source: SourceFile, doc: JsonDoc | None, report: LoadReport, legacy: bool,
+                    build) -> Scene:
+    """Run ``build(reader)`` over a JSON scene, collecting every problem before raising."""
+    r = JsonReader(doc or parse_json(source), report, legacy=legacy)
+    scene = None
+    with r.part():
+        scene = build(r)
+    r.finish()
+    assert scene is not None
+    return scene
+

@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 from .diagnostics import Related
-from .jsonpos import JsonDoc, parse_json, pointer
+from .jsonpos import JsonDoc, pointer
 from .scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
-from .scene_common import (JsonReader, LoadReport, SceneOptions, UrdfNames, _check_names,
+from .scene_common import (JsonReader, LoadReport, SceneOptions, UrdfNames, _check_names, read_json_scene,
                            _check_pairs, _Entry, _frame_names, _known_joint, _resolve_mesh,
                            _resolve_urdf, did_you_mean, find_file, fmt_num, join_hints,
                            load_allowed_pairs, tried_text)
@@ -18,13 +18,7 @@ NATIVE_SCENE_FORMAT = "tmpc-scene/1"
 
 def _load_native(source: SourceFile, opts: SceneOptions, report: LoadReport,
                  doc: JsonDoc | None = None) -> Scene:
-    r = JsonReader(doc or parse_json(source), report, legacy=False)
-    scene = None
-    with r.part():
-        scene = _native_scene(r, opts)
-    r.finish()
-    assert scene is not None
-    return scene
+    return read_json_scene(source, doc, report, False, lambda r: _native_scene(r, opts))
 
 
 def _native_scene(r: JsonReader, opts: SceneOptions) -> Scene:

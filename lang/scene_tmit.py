@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from .jsonpos import JsonDoc, parse_json, pointer
+from .jsonpos import JsonDoc, pointer
 from .scene import Pose, RobotSpec, Scene, SceneObject, Shape
 from .scene_common import (JsonReader, LoadReport, SceneOptions, UrdfNames, _check_names, _Entry,
                            _known_joint, _resolve_mesh, _resolve_urdf, box_to_object_frame,
-                           search_dirs)
+                           read_json_scene, search_dirs)
 from .source import SourceFile
 
 _TMIT_IGNORED = ("color", "specular", "hide_name")
@@ -16,13 +16,7 @@ _TMIT_IGNORED = ("color", "specular", "hide_name")
 
 def _load_tmit(source: SourceFile, opts: SceneOptions, report: LoadReport,
                doc: JsonDoc | None = None) -> Scene:
-    r = JsonReader(doc or parse_json(source), report, legacy=True)
-    scene = None
-    with r.part():
-        scene = _tmit_scene(r, opts)
-    r.finish()
-    assert scene is not None
-    return scene
+    return read_json_scene(source, doc, report, True, lambda r: _tmit_scene(r, opts))
 
 
 def _tmit_scene(r: JsonReader, opts: SceneOptions) -> Scene:

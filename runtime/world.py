@@ -4,7 +4,6 @@ model, jitted forward kinematics, the checked program when the configuration nam
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -62,24 +61,12 @@ class World:
                               allowed=self.allowed_pairs())
 
 
-def _is_config(path: Path) -> bool:
-    if path.suffix.lower() == ".toml":
-        return True
-    if path.suffix.lower() != ".json":
-        return False
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return False      # the scene loader reports the problem with its position
-    return isinstance(data, dict) and "initial_scene" in data
-
-
 def load_world(path: str | Path, with_program: bool = True) -> World:
     """A scene file (native/tmit-star JSON, planet XML) or a run configuration (TOML, tmit-star
     spec JSON). A configuration's domain and problem are checked too."""
-    from tmpc.lang.configs import load_config
-    from tmpc.lang.scenes import LoadReport, load_scene
     from tmpc.compiler.artifact import extract, is_artifact
+    from tmpc.lang.configs import is_run_config, load_config
+    from tmpc.lang.scenes import LoadReport, load_scene
     path = Path(path)
     if not path.exists():
         raise InputError(error("E010", f"no such file: {path}", None))
@@ -92,7 +79,7 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
     config = None
     # $TMPC_MESH_PATH also serves object meshes (tmit-star's repository lacks its .obj files)
     fallback = [d for d in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep) if d]
-    if _is_config(path):
+    if is_run_config(path):
         config = load_config(path, report=report)
         scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
                            strict_meshes=False, mesh_fallback_dirs=fallback)
