@@ -114,12 +114,36 @@ def _world_from_parts(args):
         return load_world(manifest)
 
 
+def cmd_plan(args) -> int:
+    from tmpc.runtime.plan_command import run_plan
+    return run_plan(args)
+
+
+def cmd_run(args) -> int:
+    from tmpc.runtime.run_command import run_run
+    return run_run(args)
+
+
+def cmd_validate(args) -> int:
+    from tmpc.runtime.validate import run_validate
+    return run_validate(args)
+
+
+def cmd_view(args) -> int:
+    from tmpc.runtime.viewer import run_view
+    return run_view(args)
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
     "check": (cmd_check, "check PDDL domains, problems and modules; scenes, configs, URDF, Lua"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
     "compile": (cmd_compile, "compile a problem into a self-contained artifact (.tmpa)"),
     "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
     "sample": (cmd_sample, "states where a predicate or an action's precondition holds"),
+    "plan": (cmd_plan, "task planning only (classical PDDL): a length-optimal sequential plan"),
+    "run": (cmd_run, "task and motion planning: a collision-free, action-annotated trajectory"),
+    "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
+    "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
 }
 
 
@@ -179,6 +203,49 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "start configurations")
         p.add_argument("--allow-collisions", action="store_true",
                        help="accept states in collision")
+    elif name == "plan":
+        p.add_argument("domain", metavar="DOMAIN")
+        p.add_argument("problem", metavar="PROBLEM")
+        p.add_argument("-o", "--output", metavar="PLAN", help="write the plan here (default: "
+                       "stdout)")
+        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try")
+        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try")
+        p.add_argument("--time-limit", type=float, default=300.0, metavar="S",
+                       help="give up after S seconds (exit 3)")
+        p.add_argument("-v", "--verbose", action="store_true",
+                       help="statistics per horizon: clauses, encoding and solve time")
+    elif name == "run":
+        p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
+                       "TOML, tmit-star spec JSON) or a compiled artifact (.tmpa)")
+        p.add_argument("--planner", default="unified", help="planner (default: unified)")
+        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        p.add_argument("--time-limit", type=float, default=120.0, metavar="S",
+                       help="stop after S seconds and report the best progress (exit 3)")
+        p.add_argument("-o", "--output", metavar="PLAN.json", help="write the plan JSON here")
+        p.add_argument("--html", metavar="PLAN.html", help="write the animated viewer here")
+        p.add_argument("--png", metavar="PLAN.png", help="write a snapshot here")
+        p.add_argument("--legacy-output", choices=("planet", "tmit-star"),
+                       help="write the bare state array of that planner instead of tmpc-plan/1")
+        p.add_argument("--heuristic-bias", type=float, default=None,
+                       help="probability of a heuristic sample (planet coin_bias)")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    elif name == "validate":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact the "
+                       "plan was made for")
+        p.add_argument("plan", metavar="PLAN.json", help="a tmpc-plan/1 file or a bare planet/"
+                       "tmit-star state array")
+        p.add_argument("--resolution", type=float, default=0.05,
+                       help="longest joint-space step between motion checks (default 0.05)")
+        p.add_argument("--tolerance", type=float, default=None,
+                       help="penetration depth (m) to ignore (default: the configuration's)")
+        p.add_argument("--json", action="store_true", help="print the report as JSON")
+    elif name == "view":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact")
+        p.add_argument("plan", metavar="PLAN.json")
+        p.add_argument("--html", metavar="OUT.html", help="animated, self-contained page")
+        p.add_argument("--png", metavar="OUT.png", help="snapshot")
+        p.add_argument("--state", type=int, default=None, metavar="I",
+                       help="which state the PNG shows (default: the last)")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
