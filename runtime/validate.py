@@ -1,0 +1,702 @@
+"""`tmpc validate INPUT PLAN.json`: an independent check of a plan (docs/plan-format.md).
+
+Independent of the planner's acceptance code for every fact it checks:
+
+| fact | checked with | not with (the planner's) |
+|---|---|---|
+| link poses | pinocchio (else yourdfpy's own kinematics), :mod:`.validate_kinematics` | JAX FK of ``compiler/fk.py`` |
+| collisions | raw python-fcl built here from the URDF and the scene, :mod:`.validate_collision` | ``CollisionWorld`` and its sphere pass |
+| geometric predicates | the numpy AST interpreter :mod:`.evaluate` (Lua ones: direct Lua evaluation) | compiled JAX kernels |
+| discrete effects, preconditions, goal | a lifted STRIPS/ADL simulator, :mod:`.validate_logic` | ``compiler/ground.py`` |
+
+Shared with the planner: the loaded scene, the checked domain/problem, and
+:class:`~tmpc.compiler.fk.RobotModel` only as a table of frame names and the configuration layout
+the interpreter's ``joint`` operator reads.
+
+Checks, state by state (a violation names the state index): the first state is the initial state;
+joints within limits and the base within the scene's bounds (planar, at the scene's height);
+joints that are not controllable at their scene value; no collision (at the penetration
+tolerance); static objects where the scene puts them; held objects where their frame carries them;
+the mode follows from the previous state (unchanged after a motion, the action's effects after an
+action; ``mode.held`` = the kinematic atoms); an action's precondition — discrete and geometric —
+holds at its state; the configuration and every object pose stay the same across an action;
+objects that are not held stay put during a motion, and the straight joint-space motion to the
+next state is collision-free at ``resolution`` (no coordinate moves more than it between two
+checked configurations; base yaw and continuous joints the short way); the goal holds at the last
+state. A bare planet/tmit-star array has no modes: they are reconstructed by simulation.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tmpc.lang.diagnostics import InputError, error
+
+from .plan_file import Plan, PlanState, read_plan
+from .validate_kinematics import (Kinematics, full_joint_values, heading, planar_base, read_urdf,
+                                  wrap_angle)
+from .validate_logic import Facts, Logic
+
+#: positions (m) and angles (rad) closer than this are the same
+POSE_TOL = 1e-4
+#: slack on joint limits and on values that must not change (rad or m)
+JOINT_TOL = 1e-6
+#: the text report lists at most this many violations
+SHOW = 20
+
+
+@dataclass
+class Violation:
+    state: int | None             # None: the plan as a whole
+    kind: str                     # initial bounds joint base object collision motion held
+    message: str                  # mode action precondition configuration goal actions
+    to: int | None = None
+    details: dict = field(default_factory=dict)
+
+    def text(self) -> str:
+        if self.kind == "goal":
+            return self.message
+        if self.state is None:
+            return self.message
+        where = f"state {self.state}" + (f" -> {self.to}" if self.to is not None else "")
+        return f"{where}: {self.message}"
+
+    def as_json(self) -> dict:
+        return {"state": self.state, "to": self.to, "kind": self.kind, "message": self.text(),
+                **self.details}
+
+
+@dataclass
+class Report:
+    states: int
+    actions: int
+    motion_checks: int = 0
+    violations: list[Violation] = field(default_factory=list)
+    seconds: float = 0.0
+    tolerance: float = 0.0
+    resolution: float = 0.0
+    kinematics: str = ""
+    status: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def valid(self) -> bool:
+        return not self.violations
+
+    def summary(self) -> str:
+        counts = (f"{self.states} states, {self.actions} action{'s' if self.actions != 1 else ''}"
+                  f", {self.motion_checks} motion checks")
+        if self.valid:
+            return f"valid: {counts}"
+        n = len(self.violations)
+        return f"invalid: {n} violation{'s' if n != 1 else ''} ({counts})"
+
+    def text(self) -> str:
+        lines = [self.summary()]
+        lines += [f"  {v.text()}" for v in self.violations[:SHOW]]
+        if len(self.violations) > SHOW:
+            lines.append(f"  ... and {len(self.violations) - SHOW} more (--json lists all)")
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def as_json(self) -> dict:
+        return {"valid": self.valid, "states": self.states, "actions": self.actions,
+                "motion_checks": self.motion_checks, "tolerance": self.tolerance,
+                "resolution": self.resolution, "kinematics": self.kinematics,
+                "status": self.status, "seconds": round(self.seconds, 3), "notes": self.notes,
+                "violations": [v.as_json() for v in self.violations]}
+
+
+@dataclass
+class _State:
+    """A plan state resolved against the world."""
+
+    index: int
+    values: dict[str, float]          # independent movable joints
+    T_root: np.ndarray
+    link_T: np.ndarray                # (L, 4, 4)
+    objects: dict[str, np.ndarray]    # scene name -> world pose
+    facts: Facts
+    held: dict[str, str]              # object (scene name) -> parent (frame or object name)
+    action: tuple | None = None
+    _geo: dict = field(default_factory=dict)
+
+
+class Validator:
+    """Validate plans for one world (a run configuration with a domain and a problem)."""
+
+    def __init__(self, world, tolerance: float | None = None, resolution: float = 0.05):
+        from .validate_collision import Checker
+        self.world, self.scene = world, world.scene
+        self.tolerance = default_tolerance(world) if tolerance is None else float(tolerance)
+        self.resolution = float(resolution)
+        self.logic = Logic(world.program)
+        spec = self.scene.robot
+        self.desc = read_urdf(world.model.tree.path) if spec is not None else None
+        self.kin = Kinematics(self.desc) if self.desc is not None else None
+        self.checker = Checker(self.desc, self.scene, self.tolerance, list(world.allowed_pairs()))
+        self.mobile = bool(spec is not None and spec.mobile_base)
+        self.T_base0 = _pose(spec.base_pose) if spec is not None else np.eye(4)
+        self.link_index = {n: i for i, n in enumerate(self.desc.links)} if self.desc else {}
+        self.defaults, self.controllable = self._defaults()
+        self._lua = None
+
+    # ---- the robot -----------------------------------------------------------------------------
+    def _defaults(self) -> tuple[dict[str, float], set[str]]:
+        if self.desc is None:
+            return {}, set()
+        spec = self.scene.robot
+        given = dict(spec.joint_values)
+        free = [j for j in self.desc.joints if j.movable and j.mimic is None]
+        ctrl = set(spec.controllable) if spec.controllable is not None else {j.name for j in free}
+        out = {}
+        for j in free:
+            lo = j.lower if j.lower is not None else -math.inf
+            hi = j.upper if j.upper is not None else math.inf
+            if j.type == "continuous" or j.lower is None:
+                lo, hi = (-math.pi, math.pi) if j.name in ctrl else (lo, hi)
+            v = given.get(j.name, 0.0)
+            out[j.name] = min(max(v, lo), hi) if (j.name in ctrl or j.name not in given) else v
+        return out, ctrl
+
+    def link_poses(self, T_root: np.ndarray, values: dict[str, float]) -> np.ndarray:
+        if self.kin is None:
+            return np.zeros((0, 4, 4))
+        return self.kin.poses(T_root, full_joint_values(self.desc, values))
+
+    def frame_T(self, st: _State, name: str) -> np.ndarray | None:
+        """World pose of a robot frame (link, or joint = its child link) or an object."""
+        if self.desc is not None:
+            link = name if name in self.link_index else (
+                self.desc.joint(name).child if self.desc.joint(name) is not None else None)
+            if link is not None:
+                return st.link_T[self.link_index[link]]
+        o = self.scene.object(name)
+        return st.objects.get(o.name) if o is not None else None
+
+    # ---- the run ---------------------------------------------------------------------------------
+    def validate(self, plan: Plan) -> Report:
+        t0 = time.perf_counter()
+        rep = Report(len(plan.states), plan.action_count, tolerance=self.tolerance,
+                     resolution=self.resolution, kinematics=self.kin.backend if self.kin else "",
+                     status=plan.status)
+        if plan.status not in (None, "solved"):
+            rep.notes.append(f"the plan's status is `{plan.status}`")
+        if plan.form == "array":
+            rep.notes.append("a bare state array: modes reconstructed by simulation")
+        self.v = rep.violations
+        self._check_action_list(plan)
+        prev: _State | None = None
+        for ps in plan.states:
+            st = self._resolve(ps, prev)
+            self._check_state(ps, st, prev, rep)
+            prev = st
+        self._check_goal(prev)
+        if self._lua is not None and self._lua[1]:
+            rep.notes.append("Lua predicates evaluated directly: " + ", ".join(sorted(self._lua[1])))
+        rep.seconds = time.perf_counter() - t0
+        return rep
+
+    def add(self, state, kind, message, to=None, **details) -> None:
+        self.v.append(Violation(state, kind, message, to, details))
+
+    def _check_action_list(self, plan: Plan) -> None:
+        if plan.actions is None:
+            return
+        from .plan_file import parse_ground
+        listed = [parse_ground(a) for a in plan.actions]
+        steps = [s.action for s in plan.states if s.action is not None]
+        norm = lambda a: None if a is None else (a[0].lower(), tuple(x.lower() for x in a[1]))  # noqa: E731
+        if [norm(a) for a in listed] != [norm(a) for a in steps]:
+            self.add(None, "actions", f"the plan's `actions` ({len(listed)}) differ from the "
+                     f"actions of its states ({len(steps)})")
+
+    # ---- resolving a state -------------------------------------------------------------------------
+    def _resolve(self, ps: PlanState, prev: _State | None) -> _State:
+        i = ps.index
+        facts, held = self._mode(ps, prev)
+        values = dict(self.defaults if prev is None else prev.values)
+        for name, v in ps.joints.items():
+            j = self.desc.joint(name) if self.desc is not None else None
+            if j is None or not j.movable:
+                self.add(i, "joint", f"unknown joint `{name}`" + (
+                    f" (the robot `{self.desc.name}` has no movable joint of that name)"
+                    if self.desc is not None else " (the scene has no robot)"))
+            elif j.mimic is not None:
+                pass   # checked against its source in _check_joints
+            else:
+                values[name] = v
+        T_root = ps.base if ps.base is not None else (self.T_base0 if prev is None else
+                                                      prev.T_root)
+        link_T = self.link_poses(T_root, values)
+        st = _State(i, values, T_root, link_T, {}, facts, held, ps.action)
+        st.objects = self._objects(ps, st, prev)
+        return st
+
+    def _mode(self, ps: PlanState, prev: _State | None) -> tuple[Facts, dict[str, str]]:
+        """The state's facts and held objects: the plan's mode when given (checked against what
+        the previous state implies), else the simulated one."""
+        L = self.logic
+        i = ps.index
+        if prev is None:
+            expected = L.initial()
+            why = "the problem's initial state"
+        elif prev.action is not None and self._bound(prev) is not None:
+            act, env = self._bound(prev)
+            expected = L.apply(act, env, prev.facts, self._geo_fn(prev))
+            why = f"action {_action_text(prev.action)}"
+        else:
+            expected = prev.facts
+            why = "a motion (the mode is unchanged)"
+        facts = expected
+        if ps.mode_atoms is not None:
+            given = self._given_facts(ps, expected)
+            want = {a for a in expected.atoms if L.is_state_atom(a[0])}
+            have = {a for a in given.atoms if L.is_state_atom(a[0])}
+            if want != have:
+                miss = ", ".join(L.atom_text(a) for a in sorted(want - have))
+                extra = ", ".join(L.atom_text(a) for a in sorted(have - want))
+                parts = ([f"missing {miss}"] if miss else []) + ([f"extra {extra}"] if extra
+                                                                 else [])
+                self.add(i, "mode", f"mode does not follow from {why}: " + "; ".join(parts))
+            facts = given
+        held = self._held(facts)
+        if ps.mode_held is not None:
+            given_held = {self._object_name(o): f for o, f in ps.mode_held.items()}
+            if {k.lower(): v.lower() for k, v in given_held.items()} != \
+                    {k.lower(): v.lower() for k, v in held.items()}:
+                self.add(i, "mode", f"mode.held {_dict_text(given_held)} does not match the "
+                         f"kinematic atoms of the mode {_dict_text(held)}")
+        return facts, held
+
+    def _given_facts(self, ps: PlanState, expected: Facts) -> Facts:
+        L = self.logic
+        atoms = {a for a in expected.atoms if not L.is_state_atom(a[0])}   # statics stay
+        for pred, args in ps.mode_atoms:
+            key, keys = pred.lower(), tuple(a.lower() for a in args)
+            decl = L.scope.predicates.get(key)
+            bad = decl is None or len(decl.params) != len(keys) or \
+                any(k not in L.objects for k in keys)
+            if bad:
+                self.add(ps.index, "mode", f"mode atom ({' '.join((pred,) + args)}) names an "
+                         "unknown predicate or object, or has the wrong number of arguments")
+            elif L.is_state_atom(key):
+                atoms.add((key, keys))
+        return Facts(frozenset(atoms), expected.numbers)
+
+    def _held(self, facts: Facts) -> dict[str, str]:
+        out = {}
+        for a in facts.atoms:
+            pc = self.logic.kinematic(a)
+            if pc is not None:
+                out[self._object_name(pc[1])] = self._frame_name(pc[0])
+        return out
+
+    def _object_name(self, key: str) -> str:
+        o = self.scene.object(key)
+        return o.name if o is not None else self.logic.name(key.lower())
+
+    def _frame_name(self, key: str) -> str:
+        name = self.logic.name(key.lower())
+        if self.desc is not None:
+            for n in list(self.link_index) + [j.name for j in self.desc.joints]:
+                if n.lower() == name.lower():
+                    return n
+        return self._object_name(name)
+
+    def _objects(self, ps: PlanState, st: _State, prev: _State | None) -> dict[str, np.ndarray]:
+        """World poses of every scene object: the plan's where given; otherwise the previous
+        state's (held objects: carried by their frame)."""
+        out: dict[str, np.ndarray] = {}
+        for name, T in ps.objects.items():
+            o = self.scene.object(name)
+            if o is None:
+                self.add(ps.index, "object", f"unknown object `{name}` in object_poses")
+            else:
+                out[o.name] = T
+        base = self._initial_objects(st) if prev is None else prev.objects
+        for o in self.scene.objects:
+            if o.name in out:
+                continue
+            if o.name in st.held and prev is not None and o.name in prev.held:
+                T = self._carried(st, prev, o.name)
+                out[o.name] = T if T is not None else base[o.name]
+            else:
+                out[o.name] = base[o.name]
+        return out
+
+    def _initial_objects(self, st: _State) -> dict[str, np.ndarray]:
+        """Object poses of the scene's start: parent chains composed; a chain ending at a robot
+        frame (or the robot's name: its root) is carried by it in the state's configuration."""
+        out = {}
+        robot = self.scene.robot
+        for o in self.scene.objects:
+            T, anchor, seen = _pose(o.pose), o.parent, {o.name.lower()}
+            while anchor is not None and self.scene.object(anchor) is not None \
+                    and anchor.lower() not in seen:
+                p = self.scene.object(anchor)
+                seen.add(anchor.lower())
+                T, anchor = _pose(p.pose) @ T, p.parent
+            if anchor is not None and robot is not None and anchor.lower() == robot.name.lower():
+                T = st.T_root @ T
+            elif anchor is not None:
+                F = self.frame_T(st, anchor)
+                T = F @ T if F is not None else T
+            out[o.name] = T
+        return out
+
+    def _carried(self, st: _State, prev: _State, obj: str) -> np.ndarray | None:
+        """Where ``obj`` is in ``st`` if it keeps its pose relative to its parent since ``prev``."""
+        parent = st.held[obj]
+        Pp, Pn = self.frame_T(prev, parent), self.frame_T(st, parent)
+        if Pp is None or Pn is None or prev.held.get(obj) != parent:
+            return None
+        return Pn @ np.linalg.inv(Pp) @ prev.objects[obj]
+
+    # ---- checks ------------------------------------------------------------------------------------
+    def _check_state(self, ps: PlanState, st: _State, prev: _State | None, rep: Report) -> None:
+        if prev is None:
+            self._check_initial(ps, st)
+        self._check_joints(ps, st)
+        self._check_base(st)
+        self._check_objects(st, prev)
+        pairs = self.checker.collisions(st.link_T, st.objects, st.held)
+        for a, b, d in pairs:
+            self.add(st.index, "collision", f"{a} collides with {b} (penetration {d:.4f} m)",
+                     pair=[a, b], depth=d)
+        if prev is not None and prev.action is not None:
+            self._check_unchanged(prev, st)
+        elif prev is not None:
+            rep.motion_checks += self._check_motion(prev, st)
+        if st.action is not None:
+            self._check_action(st)
+
+    def _check_initial(self, ps: PlanState, st: _State) -> None:
+        for name, v in sorted(st.values.items()):
+            d0 = self.defaults.get(name)
+            if d0 is not None and abs(_joint_diff(self.desc, name, v, d0)) > POSE_TOL:
+                self.add(0, "initial", f"joint `{name}` is {v:.6g}, the scene starts it at "
+                         f"{d0:.6g}")
+        if _pose_gap(st.T_root, self.T_base0) > POSE_TOL:
+            self.add(0, "initial", "base_pose differs from the scene's base pose by "
+                     f"{_pose_text(st.T_root, self.T_base0)}")
+        init = self._initial_objects(st)
+        for name, T in st.objects.items():
+            if _pose_gap(T, init[name]) > POSE_TOL:
+                self.add(0, "initial", f"object `{name}` is {_pose_text(T, init[name])} away "
+                         "from its place in the scene")
+
+    def _check_joints(self, ps: PlanState, st: _State) -> None:
+        if self.desc is None:
+            return
+        full = full_joint_values(self.desc, st.values)
+        for name, v in ps.joints.items():
+            j = self.desc.joint(name)
+            if j is None or not j.movable:
+                continue
+            if j.mimic is not None:
+                if abs(v - full[name]) > JOINT_TOL:
+                    self.add(st.index, "joint", f"mimic joint `{name}` is {v:.6g}; its source "
+                             f"`{j.mimic[0]}` makes it {full[name]:.6g}")
+                continue
+            if name not in self.controllable and abs(v - self.defaults[name]) > JOINT_TOL:
+                self.add(st.index, "joint", f"joint `{name}` is not controllable (the scene "
+                         f"fixes it at {self.defaults[name]:.6g}) but is {v:.6g}")
+            if j.lower is not None and v < j.lower - JOINT_TOL or \
+                    j.upper is not None and v > j.upper + JOINT_TOL:
+                self.add(st.index, "bounds", f"joint `{name}` = {v:.6g} is outside its limits "
+                         f"[{_num(j.lower)}, {_num(j.upper)}]", joint=name, value=v)
+
+    def _check_base(self, st: _State) -> None:
+        T, T0 = st.T_root, self.T_base0
+        if not self.mobile:
+            if _pose_gap(T, T0) > POSE_TOL:
+                self.add(st.index, "base", "the robot's base is fixed, but base_pose is "
+                         f"{_pose_text(T, T0)} away from the scene's")
+            return
+        planar = planar_base(T0, T[0, 3], T[1, 3], heading(T))
+        if _pose_gap(T, planar) > POSE_TOL:
+            self.add(st.index, "base", "base_pose is not a planar move of the scene's base pose "
+                     f"(height or tilt differ: {_pose_text(T, planar)})")
+        (xlo, xhi), (ylo, yhi) = self.scene.bounds[0], self.scene.bounds[1]
+        x, y = T[0, 3], T[1, 3]
+        if not (xlo - JOINT_TOL <= x <= xhi + JOINT_TOL and ylo - JOINT_TOL <= y <= yhi + JOINT_TOL):
+            self.add(st.index, "bounds", f"the base at ({x:.4g}, {y:.4g}) is outside the scene's "
+                     f"bounds x [{xlo:g}, {xhi:g}], y [{ylo:g}, {yhi:g}]")
+
+    def _check_objects(self, st: _State, prev: _State | None) -> None:
+        """Held objects (since the previous state) where their parent carries them; every other
+        object where it was (objects grasped or released keep their pose)."""
+        if prev is None:
+            return
+        for o in self.scene.objects:
+            T = st.objects[o.name]
+            parent = st.held.get(o.name)
+            if parent is not None and prev.held.get(o.name) == parent:
+                want = self._carried(st, prev, o.name)
+                if want is not None and _pose_gap(T, want) > POSE_TOL:
+                    self.add(st.index, "held", f"held object `{o.name}` is "
+                             f"{_pose_text(T, want)} away from where `{parent}` carries it")
+            elif _pose_gap(T, prev.objects[o.name]) > POSE_TOL:
+                what = "static " if not o.movable else ""
+                self.add(st.index, "object", f"{what}object `{o.name}` moved "
+                         f"{_pose_text(T, prev.objects[o.name])} but is not held")
+
+    def _check_unchanged(self, prev: _State, st: _State) -> None:
+        moved = [n for n in sorted(set(prev.values) | set(st.values))
+                 if abs(_joint_diff(self.desc, n, st.values.get(n, 0.0),
+                                    prev.values.get(n, 0.0))) > JOINT_TOL]
+        if _pose_gap(prev.T_root, st.T_root) > POSE_TOL:
+            moved.insert(0, "base_pose")
+        if moved:
+            self.add(prev.index, "configuration", f"the configuration changes across action "
+                     f"{_action_text(prev.action)} ({', '.join(moved[:4])}"
+                     f"{', ...' if len(moved) > 4 else ''})", to=st.index)
+
+    def _check_motion(self, a: _State, b: _State) -> int:
+        """Collision-check the straight motion a -> b; returns the configurations checked."""
+        names = sorted(set(a.values) | set(b.values))
+        va = np.array([a.values.get(n, 0.0) for n in names])
+        d = np.array([_joint_diff(self.desc, n, b.values.get(n, 0.0), a.values.get(n, 0.0))
+                      for n in names])
+        xa, ya, ha = a.T_root[0, 3], a.T_root[1, 3], heading(a.T_root)
+        db = np.array([b.T_root[0, 3] - xa, b.T_root[1, 3] - ya,
+                       wrap_angle(heading(b.T_root) - ha)]) if self.mobile else np.zeros(3)
+        span = max(np.abs(d).max(initial=0.0), np.abs(db).max())
+        n = int(math.ceil(span / self.resolution - 1e-12))
+        if n <= 1:
+            return 0
+        carried = {o: np.linalg.inv(self.frame_T(a, p)) @ a.objects[o]
+                   for o, p in a.held.items() if self.frame_T(a, p) is not None}
+        for k in range(1, n):
+            t = k / n
+            T_root = planar_base(a.T_root, xa + t * db[0], ya + t * db[1], ha + t * db[2]) \
+                if self.mobile else a.T_root
+            vals = dict(zip(names, va + t * d))
+            mid = _State(-1, vals, T_root, self.link_poses(T_root, vals), dict(a.objects),
+                         a.facts, a.held)
+            for o in _held_order(a.held):
+                if o in carried:
+                    mid.objects[o] = self.frame_T(mid, a.held[o]) @ carried[o]
+            if self.checker.collisions(mid.link_T, mid.objects, a.held, first_only=True):
+                pairs = self.checker.collisions(mid.link_T, mid.objects, a.held)
+                a_, b_, dep = pairs[0]
+                more = f" (and {len(pairs) - 1} more pair{'s' if len(pairs) > 2 else ''})" \
+                    if len(pairs) > 1 else ""
+                self.add(a.index, "motion", f"{a_} collides with {b_} at t={t:.2f} (penetration "
+                         f"{dep:.4f} m){more}", to=b.index, t=t,
+                         pairs=[[x, y, dd] for x, y, dd in pairs])
+                return k
+        return n - 1
+
+    # ---- actions, preconditions, goal ----------------------------------------------------------------
+    def _bound(self, st: _State):
+        b = self.logic.bind(*st.action)
+        return None if isinstance(b, str) else b
+
+    def _check_action(self, st: _State) -> None:
+        b = self.logic.bind(*st.action)
+        if isinstance(b, str):
+            self.add(st.index, "action", f"action {_action_text(st.action)}: {b}")
+            return
+        act, env = b
+        geo = self._geo_fn(st)
+        facts = self.logic.closure(st.facts, geo)
+        for why in self.logic.failures(act.precondition, env, facts, geo):
+            self.add(st.index, "precondition", f"precondition {why} "
+                     f"(action {_action_text(st.action)})")
+
+    def _check_goal(self, last: _State) -> None:
+        goal = self.logic.goal()
+        geo = self._geo_fn(last)
+        facts = self.logic.closure(last.facts, geo)
+        for why in self.logic.failures(goal, {}, facts, geo):
+            self.add(last.index, "goal", f"goal {why} at the last state (state {last.index})")
+
+    def _geo_fn(self, st: _State):
+        def geo(decl, args):
+            key = (decl.name.key, args)
+            if key not in st._geo:
+                st._geo[key] = self._geometric(st, decl, args)
+            return st._geo[key]
+        return geo
+
+    def _geometric(self, st: _State, decl, args) -> tuple[bool, float]:
+        names = [self.logic.name(a) for a in args]
+        if decl.semantics is None:
+            return self._lua_predicate(st, decl, names)
+        from tmpc.lang.diagnostics import TmpcError
+        from .evaluate import Evaluator, Obj
+        ev = self._evaluator(st)
+        env = {p.name.key: Obj(n) for p, n in zip(decl.params, names)}
+        try:
+            truth = bool(ev.value(decl.semantics, env))
+            return truth, 0.0 if truth else float(ev.distance(decl.semantics, env))
+        except TmpcError as exc:
+            self.add(st.index, "precondition", f"({decl.name.text} {' '.join(names)}) cannot be "
+                     f"evaluated: {exc.diagnostics[0].message}")
+            return False, math.inf
+
+    def _evaluator(self, st: _State):
+        from tmpc.compiler.fk import Frames
+        from .evaluate import Evaluator
+        model = self.world.model
+        if model is None:
+            frames, q = None, None
+        else:
+            T = np.stack([st.link_T[self.link_index[n]] for n in model.frames])
+            frames = Frames(T[:, :3, :3], T[:, :3, 3])
+            q = np.array([{"base_x": st.T_root[0, 3], "base_y": st.T_root[1, 3],
+                           "base_yaw": heading(st.T_root)}.get(n, st.values.get(n, 0.0))
+                          for n in model.q_names])
+        return Evaluator(self.scene, model, q, frames, st.objects, self.world.program.scope)
+
+    def _lua_predicate(self, st: _State, decl, names) -> tuple[bool, float]:
+        """A legacy geometric predicate: its Lua function evaluated directly at the state."""
+        from tmpc.compiler.lua_trace import LuaFallback
+        from tmpc.compiler.state import matrix_to_quat
+        cfg = self.world.config
+        if self._lua is None:
+            from tmpc.lang.lua import load_lua_predicates
+            module = load_lua_predicates(cfg.semantics) if cfg and cfg.semantics else None
+            self._lua = (module, set())
+        module = self._lua[0]
+        fn = module.lookup(decl.name.text) if module is not None else None
+        if fn is None:
+            self.add(st.index, "precondition", f"({decl.name.text} {' '.join(names)}) has no "
+                     "semantics: no inline body and no Lua function of that name")
+            return False, math.inf
+        self._lua[1].add(decl.name.text)
+        poses, supports = [], []
+        for n in names:
+            T = self.frame_T(st, n)
+            T = np.eye(4) if T is None else T
+            poses.append(list(T[:3, 3]) + list(matrix_to_quat(T[:3, :3])))
+            o = self.scene.object(n)
+            supports.append(None if o is None or o.support is None else
+                            (tuple(o.support.lower), tuple(o.support.upper)))
+        fb = LuaFallback(module, fn, ("object",) * len(names))
+        d, _ = fb(np.array(poses), supports, names, gradient=False)
+        return d <= 1e-3, float(d)
+
+
+# ---------------------------------------------------------------------------------------------
+# helpers
+
+
+def default_tolerance(world) -> float:
+    """The configuration's ``collision_tolerance``; else planet's 0.021 m for a planet TOML,
+    tmit-star's 0.029 m for a tmit-star spec; else 0."""
+    cfg = world.config
+    if cfg is None:
+        return 0.0
+    params = dict(cfg.params)
+    if "collision_tolerance" in params:
+        return float(params["collision_tolerance"])
+    return {"planet-toml": 0.021, "tmit-star-json": 0.029}.get(cfg.format, 0.0)
+
+
+def _pose(p) -> np.ndarray:
+    from .plan_file import pose_matrix
+    return pose_matrix(p.translation, p.rotation)
+
+
+def _pose_gap(A: np.ndarray, B: np.ndarray) -> float:
+    """max(translation distance, rotation angle) between two poses."""
+    dt = float(np.linalg.norm(A[:3, 3] - B[:3, 3]))
+    fro = float(np.linalg.norm(A[:3, :3] - B[:3, :3]))
+    return max(dt, 2 * math.asin(min(1.0, fro / (2 * math.sqrt(2)))))
+
+
+def _pose_text(A: np.ndarray, B: np.ndarray) -> str:
+    dt = float(np.linalg.norm(A[:3, 3] - B[:3, 3]))
+    fro = float(np.linalg.norm(A[:3, :3] - B[:3, :3]))
+    ang = 2 * math.asin(min(1.0, fro / (2 * math.sqrt(2))))
+    return f"{dt:.4g} m" + (f", {math.degrees(ang):.3g} deg" if ang > POSE_TOL else "")
+
+
+def _joint_diff(desc, name: str, b: float, a: float) -> float:
+    """b - a; continuous joints the short way round."""
+    j = desc.joint(name) if desc is not None else None
+    return wrap_angle(b - a) if j is not None and j.type == "continuous" else b - a
+
+
+def _held_order(held: dict[str, str]) -> list[str]:
+    """Held objects, parents before the objects linked to them."""
+    out: list[str] = []
+
+    def visit(o, depth=0):
+        if o in out or depth > len(held):
+            return
+        if held.get(o) in held:
+            visit(held[o], depth + 1)
+        out.append(o)
+    for o in held:
+        visit(o)
+    return out
+
+
+def _num(v) -> str:
+    return "-inf" if v is None else f"{v:.6g}"
+
+
+def _action_text(action) -> str:
+    return "(" + " ".join((action[0],) + tuple(action[1])) + ")"
+
+
+def _dict_text(d: dict) -> str:
+    return "{" + ", ".join(f"{k}: {v}" for k, v in sorted(d.items())) + "}"
+
+
+# ---------------------------------------------------------------------------------------------
+# the command
+
+
+def validate_plan(world, plan: Plan | str, tolerance: float | None = None,
+                  resolution: float = 0.05) -> Report:
+    """Validate ``plan`` (a :class:`Plan` or a path) in ``world``; see the module docstring."""
+    _check_world(world)
+    _check_numbers(tolerance, resolution)
+    if not isinstance(plan, Plan):
+        plan = read_plan(plan)
+    return Validator(world, tolerance, resolution).validate(plan)
+
+
+def _check_world(world) -> None:
+    if world.program is None or world.program.problem is None:
+        raise InputError(error("E812", "validating a plan needs the domain and problem: give the "
+                               "run configuration (manifest TOML, planet TOML, tmit-star spec) "
+                               "the plan was made for", None))
+
+
+def _check_numbers(tolerance, resolution) -> None:
+    if tolerance is not None and not (math.isfinite(tolerance) and tolerance >= 0):
+        raise InputError(error("E813", f"--tolerance {tolerance}: a penetration depth is a "
+                               "finite number >= 0 (metres)", None,
+                               "planet used 0.021, tmit-star 0.029"))
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise InputError(error("E813", f"--resolution {resolution}: the motion step is a finite "
+                               "number > 0 (rad or m)", None, "e.g. 0.05"))
+
+
+def run_validate(args) -> int:
+    from .world import load_world
+    _check_numbers(args.tolerance, args.resolution)
+    plan = read_plan(args.plan)
+    world = load_world(args.input)
+    report = validate_plan(world, plan, args.tolerance, args.resolution)
+    if args.json:
+        sys.stdout.write(json.dumps(report.as_json(), indent=2) + "\n")
+    else:
+        sys.stdout.write(report.text() + "\n")
+    return 0 if report.valid else 1
+
+
+__all__ = ["Validator", "Report", "Violation", "validate_plan", "run_validate",
+           "default_tolerance"]
