@@ -90,8 +90,8 @@ class Report:
         return not self.violations
 
     def summary(self) -> str:
-        counts = (f"{self.states} states, {self.actions} action{'s' if self.actions != 1 else ''}"
-                  f", {self.motion_checks} motion checks")
+        counts = (f"{self.states} state{'s' if self.states != 1 else ''}, {self.actions} "
+                  f"action{'s' if self.actions != 1 else ''}, {self.motion_checks} motion checks")
         if self.valid:
             return f"valid: {counts}"
         n = len(self.violations)

@@ -1,0 +1,351 @@
+"""`tmpc validate`: valid plan fixtures pass; targeted corruptions are reported at the right
+state; malformed files are one clear error; the checker never touches the planner's acceptance
+code (JAX kinematics, CollisionWorld, the grounder)."""
+
+from __future__ import annotations
+
+import copy
+import json
+import subprocess
+import sys
+
+import pytest
+
+from conftest import EXAMPLES, FIXTURES
+
+TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
+CLUTTER = EXAMPLES / "clutter" / "clutter.toml"
+PLANS = FIXTURES / "plans"
+
+
+@pytest.fixture(scope="module")
+def tabletop():
+    from tmpc.runtime.validate import Validator
+    from tmpc.runtime.world import load_world
+    return Validator(load_world(TABLETOP))
+
+
+@pytest.fixture
+def plan():
+    return json.loads((PLANS / "tabletop.json").read_text())
+
+
+def validate(validator, data):
+    from tmpc.lang.source import SourceFile
+    from tmpc.runtime.plan_file import parse_plan
+    return validator.validate(parse_plan(SourceFile("<plan>", json.dumps(data))))
+
+
+def kinds(report):
+    return [(v.state, v.kind) for v in report.violations]
+
+
+def motion_state(s, **joints):
+    """A copy of state ``s`` without action, with some joints changed."""
+    out = copy.deepcopy(s)
+    out["action"] = None
+    out["joints"].update(joints)
+    return out
+
+
+# ---- valid plans ------------------------------------------------------------------------------
+
+def test_tabletop_fixture_is_valid(tabletop, plan):
+    rep = validate(tabletop, plan)
+    assert rep.valid, rep.text()
+    assert (rep.states, rep.actions) == (9, 4)
+    assert rep.motion_checks > 20
+    assert rep.summary().startswith("valid: 9 states, 4 actions, ")
+
+
+def test_clutter_pr2_fixture_is_valid():
+    from tmpc.runtime.validate import validate_plan
+    from tmpc.runtime.world import load_world
+    rep = validate_plan(load_world(CLUTTER), str(PLANS / "clutter.json"))
+    assert rep.valid, rep.text()
+    assert rep.actions == 2 and rep.motion_checks > 20
+
+
+@pytest.mark.parametrize("flavour", ["planet", "tmit-star"])
+def test_bare_legacy_arrays_are_simulated(tabletop, plan, flavour):
+    states = []
+    for s in plan["states"]:
+        s = {k: v for k, v in s.items() if k != "mode"}
+        if s["action"] and flavour == "planet":
+            s["action"] = s["action"].strip("()").split()
+        states.append(s)
+    rep = validate(tabletop, states)
+    assert rep.valid, rep.text()
+    assert any("reconstructed by simulation" in n for n in rep.notes)
+    # without modes, a skipped action still shows: the goal is not reached
+    del states[7:]
+    states[-1]["action"] = None
+    rep = validate(tabletop, states)
+    assert ("goal" in {v.kind for v in rep.violations})
+
+
+# ---- corruptions -------------------------------------------------------------------------------
+
+def test_state_in_collision(tabletop, plan):
+    s = plan["states"]
+    s.insert(1, motion_state(s[0], panda_joint2=0.6, panda_joint4=-1.5))   # arm in the bench
+    rep = validate(tabletop, plan)
+    coll = [v for v in rep.violations if v.kind == "collision"]
+    assert coll and all(v.state == 1 for v in coll)
+    assert any("bench" in v.message for v in coll)
+    assert "state 1: panda_" in rep.text()
+
+
+def test_dropped_effect_atom(tabletop, plan):
+    atoms = plan["states"][2]["mode"]["atoms"]
+    atoms.remove("(holding panda_hand_tcp red_cube)")
+    rep = validate(tabletop, plan)
+    msgs = [v.text() for v in rep.violations if v.kind == "mode"]
+    assert any(m.startswith("state 2: mode does not follow from action (pick panda_hand_tcp "
+                            "red_cube bench): missing (holding panda_hand_tcp red_cube)")
+               for m in msgs), rep.text()
+
+
+def test_extra_atom_after_a_motion(tabletop, plan):
+    plan["states"][0]["mode"]["atoms"].append("(holding panda_hand_tcp blue_cube)")
+    rep = validate(tabletop, plan)
+    assert (0, "mode") in kinds(rep)
+    assert "extra (holding panda_hand_tcp blue_cube)" in rep.text()
+
+
+def test_wrong_action_arguments(tabletop, plan):
+    plan["states"][1]["action"] = "(pick panda_hand_tcp blue_cube bench)"
+    plan["actions"][0] = plan["states"][1]["action"]
+    rep = validate(tabletop, plan)
+    pre = [v.text() for v in rep.violations if v.kind == "precondition"]
+    assert any(t.startswith("state 1: precondition (reach panda_hand_tcp blue_cube) false: "
+                            "distance ") for t in pre), rep.text()
+    assert (2, "mode") in kinds(rep)          # the effects of the action taken differ too
+
+
+def test_ill_typed_and_unknown_actions(tabletop, plan):
+    plan.pop("actions")
+    plan["states"][1]["action"] = "(pick red_cube panda_hand_tcp bench)"
+    plan["states"][3]["action"] = "(teleport panda_hand_tcp)"
+    rep = validate(tabletop, plan)
+    act = {v.state: v.message for v in rep.violations if v.kind == "action"}
+    assert "`red_cube` is cube, but parameter ?g of `pick` is gripper" in act[1]
+    assert "unknown action `teleport`" in act[3]
+
+
+def test_actions_list_must_match_the_states(tabletop, plan):
+    plan["actions"] = plan["actions"][:2]
+    rep = validate(tabletop, plan)
+    assert kinds(rep) == [(None, "actions")]
+
+
+def test_goal_not_reached(tabletop, plan):
+    del plan["states"][5:]
+    plan["actions"] = plan["actions"][:2]
+    rep = validate(tabletop, plan)
+    goal = [v.text() for v in rep.violations]
+    assert goal == ["goal (on blue_cube tray) false at the last state (state 4)"]
+
+
+def test_object_that_is_not_held_moves(tabletop, plan):
+    plan["states"][4]["object_poses"]["blue_cube"]["translation"][2] += 0.1
+    rep = validate(tabletop, plan)
+    moved = [v for v in rep.violations if v.kind == "object"]
+    assert moved[0].state == 4 and "object `blue_cube` moved 0.1 m but is not held" in \
+        moved[0].message
+
+
+def test_static_object_moves(tabletop, plan):
+    for s in plan["states"][3:]:
+        s["object_poses"]["tray"]["translation"][0] += 0.05
+    rep = validate(tabletop, plan)
+    assert [v.text() for v in rep.violations if v.kind == "object"] == \
+        ["state 3: static object `tray` moved 0.05 m but is not held"]
+
+
+def test_held_object_left_behind(tabletop, plan):
+    plan["states"][3]["object_poses"]["red_cube"]["translation"][0] += 0.03
+    rep = validate(tabletop, plan)
+    held = [v for v in rep.violations if v.kind == "held"]
+    assert held[0].state == 3 and "where `panda_hand_tcp` carries it" in held[0].message
+
+
+def test_configuration_changes_across_an_action(tabletop, plan):
+    plan["states"][2]["joints"]["panda_joint1"] += 0.1
+    rep = validate(tabletop, plan)
+    conf = [v for v in rep.violations if v.kind == "configuration"]
+    assert conf and (conf[0].state, conf[0].to) == (1, 2)
+    assert "panda_joint1" in conf[0].message
+
+
+def test_joint_out_of_bounds_and_fixed_joint_moved(tabletop, plan):
+    s = plan["states"]
+    s.insert(1, motion_state(s[0], panda_joint4=0.5, panda_finger_joint1=0.01))
+    rep = validate(tabletop, plan)
+    assert [v.message for v in rep.violations if v.kind == "bounds"] == \
+        ["joint `panda_joint4` = 0.5 is outside its limits [-3.0718, -0.0698]"]
+    fixed = [v for v in rep.violations if v.kind == "joint"]
+    assert fixed[0].state == 1 and "`panda_finger_joint1` is not controllable" in \
+        fixed[0].message
+
+
+def test_first_state_must_be_the_initial_state(tabletop, plan):
+    s0 = plan["states"][0]
+    s0["joints"]["panda_joint1"] = 0.2
+    s0["object_poses"]["red_cube"]["translation"][1] += 0.01
+    rep = validate(tabletop, plan)
+    init = [v.message for v in rep.violations if v.kind == "initial"]
+    assert any("panda_joint1" in m for m in init)
+    assert any("red_cube" in m for m in init)
+
+
+def test_unknown_names(tabletop, plan):
+    plan["states"][2]["joints"]["elbow"] = 0.0
+    plan["states"][2]["object_poses"]["ghost"] = {"translation": [0, 0, 0]}
+    rep = validate(tabletop, plan)
+    msgs = [v.text() for v in rep.violations]
+    assert "state 2: unknown joint `elbow` (the robot `panda` has no movable joint of that " \
+           "name)" in msgs
+    assert "state 2: unknown object `ghost` in object_poses" in msgs
+
+
+def test_motion_through_the_bench_between_free_states(tabletop, plan):
+    """Both ends are collision-free; the straight joint-space motion sweeps the arm through the
+    bench: only the motion check can catch it."""
+    s0 = plan["states"][0]
+    up = motion_state(s0, panda_joint1=-1.5)
+    a = motion_state(s0, panda_joint1=-1.5, panda_joint2=0.6, panda_joint4=-1.5)
+    b = motion_state(s0, panda_joint1=1.5, panda_joint2=0.6, panda_joint4=-1.5)
+    plan = {"format": "tmpc-plan/1", "states": [s0, up, a, b]}
+    rep = validate(tabletop, plan)
+    assert [(v.state, v.to, v.kind) for v in rep.violations if v.kind != "goal"] == \
+        [(2, 3, "motion")]
+    v = rep.violations[0]
+    assert "collides with bench at t=" in v.message and 0.0 < v.details["t"] < 1.0
+    # a coarse resolution steps over the bench: the same plan is then only short of its goal
+    from tmpc.runtime.validate import Validator
+    coarse = Validator(tabletop.world, resolution=10.0)
+    assert {v.kind for v in validate(coarse, plan).violations} == {"goal"}
+
+
+def test_penetration_tolerance(tmp_path, plan):
+    """A cube resting 5 mm into the bench: a collision at tolerance 0, none at planet's
+    0.021 m."""
+    import shutil
+    from tmpc.runtime.validate import Validator
+    from tmpc.runtime.world import load_world
+    for f in ("domain.pddl", "problem.pddl", "tabletop.toml"):
+        shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
+    scene = json.loads((EXAMPLES / "tabletop" / "scene.json").read_text())
+    cube = next(o for o in scene["objects"] if o["name"] == "red_cube")
+    cube["pose"]["translation"][2] -= 0.005
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    world = load_world(tmp_path / "tabletop.toml")
+    plan["states"][0]["object_poses"]["red_cube"]["translation"][2] -= 0.005
+    del plan["states"][1:]
+    plan["actions"] = []
+    strict = validate(Validator(world), plan)
+    coll = [v for v in strict.violations if v.kind == "collision"]
+    assert [(v.state, v.details["pair"]) for v in coll] == [(0, ["red_cube", "bench"])] or \
+        [(v.state, v.details["pair"]) for v in coll] == [(0, ["bench", "red_cube"])]
+    assert coll[0].details["depth"] == pytest.approx(0.005, abs=1e-6)
+    loose = validate(Validator(world, tolerance=0.021), plan)
+    assert {v.kind for v in loose.violations} == {"goal"}
+
+
+# ---- malformed files ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("data, code, where", [
+    ({"format": "tmpc-plan/2", "states": []}, "E802", "/format"),
+    ({"format": "tmpc-plan/1", "states": []}, "E803", "/states"),
+    ({"format": "tmpc-plan/1"}, "E803", "/"),
+    ("not a plan", "E801", "/"),
+    ([{"joints": {"a": "x"}}], "E805", "/0/joints/a"),
+    ([{"base_pose": {"rotation": [0, 0, 0, 2]}}], "E806", "/0/base_pose/rotation"),
+    ([{"object_poses": {"o": {"translation": [0, 0]}}}], "E806", "/0/object_poses/o/translation"),
+    ([{"object_poses": []}], "E807", "/0/object_poses"),
+    ([{"action": 3}], "E808", "/0/action"),
+    ([{"mode": {"atoms": "(a)"}}], "E809", "/0/mode/atoms"),
+    ([{"mode": {"atoms": ["(a b"]}}], "E810", "/0/mode/atoms/0"),
+    ([{"velocity": 1}], "E804", "/0/velocity"),
+    ({"format": "tmpc-plan/1", "status": 1, "states": [{}]}, "E811", "/status"),
+])
+def test_malformed_plans(data, code, where):
+    from tmpc.lang.source import SourceFile
+    from tmpc.runtime.plan_file import PlanError, parse_plan
+    src = SourceFile("p.json", json.dumps(data, indent=1))
+    with pytest.raises(PlanError) as exc:
+        parse_plan(src)
+    d = exc.value.diagnostics[0]
+    assert d.code == code and f"p.json: {where}: " in d.message
+    if where != "/":
+        assert d.span is not None and d.span.start > 0
+
+
+def test_action_forms():
+    from tmpc.runtime.plan_file import parse_ground
+    want = ("pick", ("g", "c", "s"))
+    assert parse_ground("(pick g c s)") == want
+    assert parse_ground("pick g c s") == want
+    assert parse_ground("pick(g, c, s)") == want
+    assert parse_ground("pick(") is None
+
+
+# ---- the command ---------------------------------------------------------------------------------
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "validate", *map(str, args)],
+                          capture_output=True, text=True)
+
+
+def test_cli_valid_invalid_json_and_malformed(tmp_path, plan):
+    ok = cli(TABLETOP, PLANS / "tabletop.json")
+    assert ok.returncode == 0, ok.stderr
+    assert ok.stdout.startswith("valid: 9 states, 4 actions, ")
+    del plan["states"][5:]
+    plan["actions"] = plan["actions"][:2]
+    bad = tmp_path / "short.json"
+    bad.write_text(json.dumps(plan))
+    r = cli(TABLETOP, bad, "--json")
+    assert r.returncode == 1
+    out = json.loads(r.stdout)
+    assert out["valid"] is False and out["violations"][0]["kind"] == "goal"
+    broken = tmp_path / "broken.json"
+    broken.write_text('{"format": "tmpc-plan/1",\n "states": [}\n')
+    r = cli(TABLETOP, broken)
+    assert r.returncode == 1 and "E800" in r.stderr and "broken.json:2:" in r.stderr
+    assert "Traceback" not in r.stderr
+    r = cli(TABLETOP, PLANS / "tabletop.json", "--resolution", "0")
+    assert r.returncode == 1 and "E813" in r.stderr
+    scene = EXAMPLES / "tabletop" / "scene.json"
+    r = cli(scene, PLANS / "tabletop.json")
+    assert r.returncode == 1 and "E812" in r.stderr
+
+
+def test_independent_of_the_planners_acceptance_code():
+    code = ("import sys\n"
+            "from tmpc.runtime.world import load_world\n"
+            "from tmpc.runtime.validate import validate_plan\n"
+            f"r = validate_plan(load_world({str(TABLETOP)!r}), {str(PLANS / 'tabletop.json')!r})\n"
+            "assert r.valid and r.kinematics in ('pinocchio', 'yourdfpy')\n"
+            "bad = [m for m in sys.modules if m.split('.')[0] == 'jax' or m in\n"
+            "       ('tmpc.runtime.collision', 'tmpc.runtime.spheres', 'tmpc.compiler.ground',\n"
+            "        'tmpc.compiler.jaxgen', 'tmpc.compiler.project')]\n"
+            "print(bad)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"
+
+
+def test_yourdfpy_kinematics_agree_with_pinocchio(tabletop):
+    import numpy as np
+    from tmpc.runtime.validate_kinematics import Kinematics, full_joint_values
+    pytest.importorskip("pinocchio")
+    other = Kinematics(tabletop.desc, "yourdfpy")
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        vals = {j.name: rng.uniform(j.lower, j.upper) for j in tabletop.desc.joints
+                if j.movable and j.mimic is None}
+        vals = full_joint_values(tabletop.desc, vals)
+        assert np.allclose(tabletop.kin.poses(np.eye(4), vals), other.poses(np.eye(4), vals),
+                           atol=1e-9)
