@@ -102,7 +102,8 @@ class _Reader:
         self._doc = None
 
     def fail(self, code: str, pointer: str, message: str, hint: str | None = None) -> PlanError:
-        """An error at the value ``pointer`` points at (spans found by re-parsing with positions)."""
+        """An error at the value ``pointer`` points at (its span: the file parsed again with
+        positions)."""
         span = None
         try:
             if self._doc is None:

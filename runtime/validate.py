@@ -2,12 +2,14 @@
 
 Independent of the planner's acceptance code for every fact it checks:
 
-| fact | checked with | not with (the planner's) |
-|---|---|---|
-| link poses | pinocchio (else yourdfpy's own kinematics), :mod:`.validate_kinematics` | JAX FK of ``compiler/fk.py`` |
-| collisions | raw python-fcl built here from the URDF and the scene, :mod:`.validate_collision` | ``CollisionWorld`` and its sphere pass |
-| geometric predicates | the numpy AST interpreter :mod:`.evaluate` (Lua ones: direct Lua evaluation) | compiled JAX kernels |
-| discrete effects, preconditions, goal | a lifted STRIPS/ADL simulator, :mod:`.validate_logic` | ``compiler/ground.py`` |
+* link poses: pinocchio (else yourdfpy's own kinematics), :mod:`.validate_kinematics` — not the
+  JAX forward kinematics of ``compiler/fk.py``;
+* collisions: raw python-fcl objects built here from the URDF and the scene,
+  :mod:`.validate_collision` — not ``CollisionWorld`` and its sphere pass;
+* geometric predicates: the numpy AST interpreter :mod:`.evaluate` (Lua-defined ones: the Lua
+  function evaluated directly) — not the compiled JAX kernels;
+* discrete preconditions, effects and the goal: a lifted STRIPS/ADL simulator,
+  :mod:`.validate_logic` — not ``compiler/ground.py``'s ground problem.
 
 Shared with the planner: the loaded scene, the checked domain/problem, and
 :class:`~tmpc.compiler.fk.RobotModel` only as a table of frame names and the configuration layout
@@ -39,8 +41,8 @@ import numpy as np
 from tmpc.lang.diagnostics import InputError, error
 
 from .plan_file import Plan, PlanState, read_plan
-from .validate_kinematics import (Kinematics, full_joint_values, heading, planar_base, read_urdf,
-                                  wrap_angle)
+from .validate_kinematics import (Kinematics, full_joint_values, heading, joint_delta,
+                                  planar_base, read_urdf, scene_defaults, straight_motion)
 from .validate_logic import Facts, Logic
 
 #: positions (m) and angles (rad) closer than this are the same
@@ -147,23 +149,11 @@ class Validator:
         self.defaults, self.controllable = self._defaults()
         self._lua = None
 
-    # ---- the robot -----------------------------------------------------------------------------
+    # ---- the robot ------------------------------------------------------------------------------
     def _defaults(self) -> tuple[dict[str, float], set[str]]:
         if self.desc is None:
             return {}, set()
-        spec = self.scene.robot
-        given = dict(spec.joint_values)
-        free = [j for j in self.desc.joints if j.movable and j.mimic is None]
-        ctrl = set(spec.controllable) if spec.controllable is not None else {j.name for j in free}
-        out = {}
-        for j in free:
-            lo = j.lower if j.lower is not None else -math.inf
-            hi = j.upper if j.upper is not None else math.inf
-            if j.type == "continuous" or j.lower is None:
-                lo, hi = (-math.pi, math.pi) if j.name in ctrl else (lo, hi)
-            v = given.get(j.name, 0.0)
-            out[j.name] = min(max(v, lo), hi) if (j.name in ctrl or j.name not in given) else v
-        return out, ctrl
+        return scene_defaults(self.desc, self.scene.robot)
 
     def link_poses(self, T_root: np.ndarray, values: dict[str, float]) -> np.ndarray:
         if self.kin is None:
@@ -180,7 +170,7 @@ class Validator:
         o = self.scene.object(name)
         return st.objects.get(o.name) if o is not None else None
 
-    # ---- the run ---------------------------------------------------------------------------------
+    # ---- the run --------------------------------------------------------------------------------
     def validate(self, plan: Plan) -> Report:
         t0 = time.perf_counter()
         rep = Report(len(plan.states), plan.action_count, tolerance=self.tolerance,
@@ -199,7 +189,8 @@ class Validator:
             prev = st
         self._check_goal(prev)
         if self._lua is not None and self._lua[1]:
-            rep.notes.append("Lua predicates evaluated directly: " + ", ".join(sorted(self._lua[1])))
+            rep.notes.append("Lua predicates evaluated directly: " +
+                             ", ".join(sorted(self._lua[1])))
         rep.seconds = time.perf_counter() - t0
         return rep
 
@@ -212,12 +203,11 @@ class Validator:
         from .plan_file import parse_ground
         listed = [parse_ground(a) for a in plan.actions]
         steps = [s.action for s in plan.states if s.action is not None]
-        norm = lambda a: None if a is None else (a[0].lower(), tuple(x.lower() for x in a[1]))  # noqa: E731
-        if [norm(a) for a in listed] != [norm(a) for a in steps]:
+        if [_norm_action(a) for a in listed] != [_norm_action(a) for a in steps]:
             self.add(None, "actions", f"the plan's `actions` ({len(listed)}) differ from the "
                      f"actions of its states ({len(steps)})")
 
-    # ---- resolving a state -------------------------------------------------------------------------
+    # ---- resolving a state ----------------------------------------------------------------------
     def _resolve(self, ps: PlanState, prev: _State | None) -> _State:
         i = ps.index
         facts, held = self._mode(ps, prev)
@@ -359,7 +349,7 @@ class Validator:
             return None
         return Pn @ np.linalg.inv(Pp) @ prev.objects[obj]
 
-    # ---- checks ------------------------------------------------------------------------------------
+    # ---- checks ---------------------------------------------------------------------------------
     def _check_state(self, ps: PlanState, st: _State, prev: _State | None, rep: Report) -> None:
         if prev is None:
             self._check_initial(ps, st)
@@ -380,7 +370,7 @@ class Validator:
     def _check_initial(self, ps: PlanState, st: _State) -> None:
         for name, v in sorted(st.values.items()):
             d0 = self.defaults.get(name)
-            if d0 is not None and abs(_joint_diff(self.desc, name, v, d0)) > POSE_TOL:
+            if d0 is not None and abs(joint_delta(self.desc, name, v, d0)) > POSE_TOL:
                 self.add(0, "initial", f"joint `{name}` is {v:.6g}, the scene starts it at "
                          f"{d0:.6g}")
         if _pose_gap(st.T_root, self.T_base0) > POSE_TOL:
@@ -426,7 +416,8 @@ class Validator:
                      f"(height or tilt differ: {_pose_text(T, planar)})")
         (xlo, xhi), (ylo, yhi) = self.scene.bounds[0], self.scene.bounds[1]
         x, y = T[0, 3], T[1, 3]
-        if not (xlo - JOINT_TOL <= x <= xhi + JOINT_TOL and ylo - JOINT_TOL <= y <= yhi + JOINT_TOL):
+        tol = JOINT_TOL
+        if not (xlo - tol <= x <= xhi + tol and ylo - tol <= y <= yhi + tol):
             self.add(st.index, "bounds", f"the base at ({x:.4g}, {y:.4g}) is outside the scene's "
                      f"bounds x [{xlo:g}, {xhi:g}], y [{ylo:g}, {yhi:g}]")
 
@@ -450,7 +441,7 @@ class Validator:
 
     def _check_unchanged(self, prev: _State, st: _State) -> None:
         moved = [n for n in sorted(set(prev.values) | set(st.values))
-                 if abs(_joint_diff(self.desc, n, st.values.get(n, 0.0),
+                 if abs(joint_delta(self.desc, n, st.values.get(n, 0.0),
                                     prev.values.get(n, 0.0))) > JOINT_TOL]
         if _pose_gap(prev.T_root, st.T_root) > POSE_TOL:
             moved.insert(0, "base_pose")
@@ -461,24 +452,15 @@ class Validator:
 
     def _check_motion(self, a: _State, b: _State) -> int:
         """Collision-check the straight motion a -> b; returns the configurations checked."""
-        names = sorted(set(a.values) | set(b.values))
-        va = np.array([a.values.get(n, 0.0) for n in names])
-        d = np.array([_joint_diff(self.desc, n, b.values.get(n, 0.0), a.values.get(n, 0.0))
-                      for n in names])
-        xa, ya, ha = a.T_root[0, 3], a.T_root[1, 3], heading(a.T_root)
-        db = np.array([b.T_root[0, 3] - xa, b.T_root[1, 3] - ya,
-                       wrap_angle(heading(b.T_root) - ha)]) if self.mobile else np.zeros(3)
-        span = max(np.abs(d).max(initial=0.0), np.abs(db).max())
-        n = int(math.ceil(span / self.resolution - 1e-12))
+        m = straight_motion(self.desc, self.mobile, a.values, a.T_root, b.values, b.T_root)
+        n = int(math.ceil(m.span / self.resolution - 1e-12))
         if n <= 1:
             return 0
         carried = {o: np.linalg.inv(self.frame_T(a, p)) @ a.objects[o]
                    for o, p in a.held.items() if self.frame_T(a, p) is not None}
         for k in range(1, n):
             t = k / n
-            T_root = planar_base(a.T_root, xa + t * db[0], ya + t * db[1], ha + t * db[2]) \
-                if self.mobile else a.T_root
-            vals = dict(zip(names, va + t * d))
+            vals, T_root = m.at(t)
             mid = _State(-1, vals, T_root, self.link_poses(T_root, vals), dict(a.objects),
                          a.facts, a.held)
             for o in _held_order(a.held):
@@ -495,7 +477,7 @@ class Validator:
                 return k
         return n - 1
 
-    # ---- actions, preconditions, goal ----------------------------------------------------------------
+    # ---- actions, preconditions, goal -----------------------------------------------------------
     def _bound(self, st: _State):
         b = self.logic.bind(*st.action)
         return None if isinstance(b, str) else b
@@ -621,12 +603,6 @@ def _pose_text(A: np.ndarray, B: np.ndarray) -> str:
     return f"{dt:.4g} m" + (f", {math.degrees(ang):.3g} deg" if ang > POSE_TOL else "")
 
 
-def _joint_diff(desc, name: str, b: float, a: float) -> float:
-    """b - a; continuous joints the short way round."""
-    j = desc.joint(name) if desc is not None else None
-    return wrap_angle(b - a) if j is not None and j.type == "continuous" else b - a
-
-
 def _held_order(held: dict[str, str]) -> list[str]:
     """Held objects, parents before the objects linked to them."""
     out: list[str] = []
@@ -640,6 +616,10 @@ def _held_order(held: dict[str, str]) -> list[str]:
     for o in held:
         visit(o)
     return out
+
+
+def _norm_action(a):
+    return None if a is None else (a[0].lower(), tuple(x.lower() for x in a[1]))
 
 
 def _num(v) -> str:

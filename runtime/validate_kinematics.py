@@ -88,8 +88,9 @@ def read_urdf(path: str | Path) -> RobotDescription:
         axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), float)
         n = np.linalg.norm(axis)
         lim = j.limit
-        lo = None if lim is None or lim.lower is None or j.type == "continuous" else float(lim.lower)
-        hi = None if lim is None or lim.upper is None or j.type == "continuous" else float(lim.upper)
+        bounded = lim is not None and j.type != "continuous"
+        lo = float(lim.lower) if bounded and lim.lower is not None else None
+        hi = float(lim.upper) if bounded and lim.upper is not None else None
         mimic = None if j.mimic is None else (
             j.mimic.joint, float(1.0 if j.mimic.multiplier is None else j.mimic.multiplier),
             float(j.mimic.offset or 0.0))
@@ -242,3 +243,93 @@ class Kinematics:
             for k, name in enumerate(self.desc.links):
                 out[k] = u.get_transform(name, self.desc.root)
         return np.einsum("ij,ljk->lik", T_root, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# the scene's start and straight motions
+
+
+def scene_defaults(desc: RobotDescription, spec) -> tuple[dict[str, float], set[str]]:
+    """(value of every independent movable joint at the scene's start, the controllable ones).
+    Controllable joints are clipped into their limits (continuous ones into [-pi, pi]); others
+    keep the scene's value (unset: 0 clipped into the limits)."""
+    given = dict(spec.joint_values)
+    free = [j for j in desc.joints if j.movable and j.mimic is None]
+    ctrl = set(spec.controllable) if spec.controllable is not None else {j.name for j in free}
+    out = {}
+    for j in free:
+        lo = j.lower if j.lower is not None else -math.inf
+        hi = j.upper if j.upper is not None else math.inf
+        if j.name in ctrl and (j.type == "continuous" or j.lower is None or j.upper is None):
+            lo, hi = -math.pi, math.pi
+        v = given.get(j.name, 0.0)
+        out[j.name] = min(max(v, lo), hi) if (j.name in ctrl or j.name not in given) else v
+    return out, ctrl
+
+
+def joint_delta(desc: RobotDescription | None, name: str, b: float, a: float) -> float:
+    """b - a; continuous joints the short way round."""
+    j = desc.joint(name) if desc is not None else None
+    return wrap_angle(b - a) if j is not None and j.type == "continuous" else b - a
+
+
+@dataclass
+class Motion:
+    """The straight configuration-space motion between two (joint values, root pose) pairs: joints
+    linearly (continuous ones the short way), a mobile base in x, y and heading (the short way),
+    keeping the first pose's height and tilt. ``span``: the largest coordinate change."""
+
+    names: list[str]
+    start: np.ndarray
+    delta: np.ndarray
+    T0: np.ndarray
+    base: np.ndarray             # (x, y, heading) at the start
+    base_delta: np.ndarray
+    mobile: bool
+    span: float
+
+    def at(self, t: float) -> tuple[dict[str, float], np.ndarray]:
+        values = dict(zip(self.names, self.start + t * self.delta))
+        if not self.mobile:
+            return values, self.T0
+        x, y, h = self.base + t * self.base_delta
+        return values, planar_base(self.T0, x, y, h)
+
+
+def straight_motion(desc, mobile: bool, va: dict, Ta: np.ndarray, vb: dict,
+                    Tb: np.ndarray) -> Motion:
+    names = sorted(set(va) | set(vb))
+    start = np.array([va.get(n, 0.0) for n in names])
+    delta = np.array([joint_delta(desc, n, vb.get(n, 0.0), va.get(n, 0.0)) for n in names])
+    base = np.array([Ta[0, 3], Ta[1, 3], heading(Ta)])
+    bd = np.array([Tb[0, 3] - Ta[0, 3], Tb[1, 3] - Ta[1, 3], wrap_angle(heading(Tb) - base[2])]) \
+        if mobile else np.zeros(3)
+    span = float(max(np.abs(delta).max(initial=0.0), np.abs(bd).max()))
+    return Motion(names, start, delta, Ta, base, bd, mobile, span)
+
+
+def quat_of(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (x, y, z, w), w >= 0, of a rotation matrix."""
+    m = R
+    t = m[0, 0] + m[1, 1] + m[2, 2]
+    if t > 0:
+        s = math.sqrt(t + 1.0) * 2
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
+        q = [s / 4, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
+        q = [(m[0, 1] + m[1, 0]) / s, s / 4, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, s / 4, (m[1, 0] - m[0, 1]) / s]
+    q = np.asarray(q) / np.linalg.norm(q)
+    return -q if q[3] < 0 else q
+
+
+def quat_matrix(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])

@@ -48,7 +48,7 @@ def motion_state(s, **joints):
     return out
 
 
-# ---- valid plans ------------------------------------------------------------------------------
+# ---- valid plans --------------------------------------------------------------------------------
 
 def test_tabletop_fixture_is_valid(tabletop, plan):
     rep = validate(tabletop, plan)
@@ -84,7 +84,7 @@ def test_bare_legacy_arrays_are_simulated(tabletop, plan, flavour):
     assert ("goal" in {v.kind for v in rep.violations})
 
 
-# ---- corruptions -------------------------------------------------------------------------------
+# ---- corruptions --------------------------------------------------------------------------------
 
 def test_state_in_collision(tabletop, plan):
     s = plan["states"]
@@ -291,7 +291,7 @@ def test_action_forms():
     assert parse_ground("pick(") is None
 
 
-# ---- the command ---------------------------------------------------------------------------------
+# ---- the command --------------------------------------------------------------------------------
 
 def cli(*args):
     return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "validate", *map(str, args)],
