@@ -147,6 +147,13 @@ def test_goal_not_reached(tabletop, plan):
     assert goal == ["goal (on blue_cube tray) false at the last state (state 4)"]
 
 
+def test_plan_ending_with_an_action(tabletop, plan):
+    del plan["states"][-1]
+    rep = validate(tabletop, plan)
+    assert "state 7: the plan ends with action (place panda_hand_tcp blue_cube tray): its " \
+           "effects need a following state (same configuration, the new mode)" in rep.text()
+
+
 def test_object_that_is_not_held_moves(tabletop, plan):
     plan["states"][4]["object_poses"]["blue_cube"]["translation"][2] += 0.1
     rep = validate(tabletop, plan)
@@ -251,6 +258,48 @@ def test_penetration_tolerance(tmp_path, plan):
     assert coll[0].details["depth"] == pytest.approx(0.005, abs=1e-6)
     loose = validate(Validator(world, tolerance=0.021), plan)
     assert {v.kind for v in loose.violations} == {"goal"}
+
+
+LUA = """local t = require('tmit-star')
+local m = t.math
+return {
+  ['reach'] = function(g, c)
+    local dx, dy, dz = g.px - c.px, g.py - c.py, g.pz - c.pz
+    return m.sqrt(dx * dx + dy * dy + dz * dz) - 0.02
+  end,
+  ['over'] = function(g, s)
+    local d = m.max(s.px + s.x_low - g.px, g.px - (s.px + s.x_high))
+    d = m.max(d, m.max(s.py + s.y_low - g.py, g.py - (s.py + s.y_high)))
+    return m.max(d, m.max(s.pz + s.z_low - g.pz, g.pz - (s.pz + s.z_high + 0.3)))
+  end,
+}
+"""
+
+
+def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
+    """Legacy geometric predicates (no inline body): their Lua functions run at each state."""
+    import shutil
+    from tmpc.runtime.validate import Validator
+    from tmpc.runtime.world import load_world
+    for f in ("problem.pddl", "scene.json"):
+        shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
+    domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
+    head, rest = domain.split("    ; the tool centre point is at the cube", 1)
+    domain = head + "    (reach ?g - gripper ?c - cube :geometric)\n" \
+        "    (over ?g - gripper ?s - surface :geometric))\n" + rest[rest.index("  (:action"):]
+    (tmp_path / "domain.pddl").write_text(domain)
+    (tmp_path / "preds.lua").write_text(LUA)
+    (tmp_path / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = '
+                                       '"problem.pddl"\nscene = "scene.json"\nsemantics = '
+                                       '"preds.lua"\n')
+    v = Validator(load_world(tmp_path / "run.toml"))
+    rep = validate(v, plan)
+    assert rep.valid, rep.text()
+    assert rep.notes == ["Lua predicates evaluated directly: over, reach"]
+    plan["states"][1]["action"] = plan["actions"][0] = "(pick panda_hand_tcp blue_cube bench)"
+    pre = [x.text() for x in validate(v, plan).violations if x.kind == "precondition"]
+    assert len(pre) == 1 and pre[0].startswith("state 1: precondition (reach panda_hand_tcp "
+                                               "blue_cube) false: distance 0.")
 
 
 # ---- malformed files ----------------------------------------------------------------------------
