@@ -222,8 +222,14 @@ class FirstPass:
         self.balls = [ball(g.shape, g.mesh) for g in world.geoms]
         self.K = max([len(c[1]) for c in self.covers] + [1])
         self._fk = _jit_frames_T(world.fk)
+        self._used = np.zeros(0, np.int64)
         self._plans: dict = {}
         self._tables: dict = {}
+
+    def reserve(self, frames) -> None:
+        """Frames that will hold objects (kinematic parents): read them from the start so the
+        batched FK compiles once for every mode."""
+        self._used = np.union1d(self._used, np.asarray(list(frames), np.int64))
 
     def plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
         """The plan of a batch (cached: motions reuse it)."""
@@ -241,7 +247,11 @@ class FirstPass:
         body = w._geom_body
         moving = gframe >= 0                                   # per dynamic position
         mv = w.dynamic[moving]
-        used = np.unique(gframe[moving])
+        # Frames read by the batched FK: every frame that carries a robot geometry plus those
+        # holding objects, grown monotonically so the jitted FK slice (one compile per frame set
+        # and batch shape) is reused across modes instead of retraced per held-object set.
+        self._used = np.union1d(self._used, gframe[moving]).astype(np.int64)
+        used = self._used
         mpos = np.full(len(w.geoms), -1, np.int64)
         mpos[mv] = np.arange(len(mv))
         world_T = {int(g): local[k] for k, g in enumerate(w.dynamic) if not moving[k]}

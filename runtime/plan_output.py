@@ -1,0 +1,91 @@
+"""Plans as JSON (docs/plan-format.md): ``tmpc-plan/1`` objects and the bare state arrays planet
+and tmit-star wrote (LEGACY.md "Outputs").
+
+Every state lists every movable joint (continuous ones included), the base pose, every scene
+object's world pose (held objects where their frame carries them) and its mode; the action is on
+the state where it is executed, and the next state has the same configuration in the successor
+mode.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FORMAT = "tmpc-plan/1"
+
+
+def action_text(action) -> str:
+    return "(" + " ".join((action.schema, *action.args)) + ")"
+
+
+def plan_states(problem, path) -> list[dict]:
+    """State dicts for ``path`` = [(q, mode, action executed there or None)]."""
+    from tmpc.compiler.state import WorldState, state_to_json
+    ground = problem.ground
+    out = []
+    for q, mode, action in path:
+        state = WorldState(np.asarray(q, float), mode.poses, mode.held)
+        d = state_to_json(state, problem.model, problem.world.fk(state.q))
+        d.pop("mode", None)
+        d["action"] = action_text(action) if action is not None else None
+        d["mode"] = {"atoms": ground.state_atoms(mode.sym),
+                     "held": {obj: frame for obj, (frame, _) in sorted(mode.held.items())}}
+        out.append(d)
+    return out
+
+
+def plan_document(problem, result, *, planner: str, seed: int, input_path: str,
+                  setup_seconds: float) -> dict:
+    states = plan_states(problem, result.path)
+    return {
+        "format": FORMAT,
+        "status": result.status,
+        "planner": planner,
+        "seed": seed,
+        "input": {"path": str(input_path), "digest": file_digest(input_path)},
+        "actions": [s["action"] for s in states if s["action"] is not None],
+        "stats": dict(result.stats, setup_seconds=round(setup_seconds, 4)),
+        "states": states,
+    }
+
+
+def legacy_states(doc: dict, flavour: str) -> list[dict]:
+    """The bare state array of planet (action ``[name, args...]``) or tmit-star (a string)."""
+    out = []
+    for s in doc["states"]:
+        a = s.get("action")
+        if a is not None and flavour == "planet":
+            a = a.strip("()").split()
+        out.append({"joints": s["joints"], "base_pose": s["base_pose"],
+                    "object_poses": s["object_poses"], "action": a})
+    return out
+
+
+def file_digest(path) -> str | None:
+    try:
+        return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def write_json_atomic(path, data) -> None:
+    """Write JSON to ``path`` through a temporary file in the same directory (never half a file)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or Path("."))
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
