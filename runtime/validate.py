@@ -44,77 +44,13 @@ from .plan_file import Plan, PlanState, read_plan
 from .validate_kinematics import (Kinematics, full_joint_values, heading, joint_delta,
                                   planar_base, read_urdf, scene_defaults, straight_motion)
 from .validate_logic import Facts, Logic
+from .validate_predicates import Predicates
+from .validate_report import Report, Violation
 
 #: positions (m) and angles (rad) closer than this are the same
 POSE_TOL = 1e-4
 #: slack on joint limits and on values that must not change (rad or m)
 JOINT_TOL = 1e-6
-#: the text report lists at most this many violations
-SHOW = 20
-
-
-@dataclass
-class Violation:
-    state: int | None             # None: the plan as a whole
-    kind: str                     # initial bounds joint base object collision motion held
-    message: str                  # mode action precondition configuration goal actions
-    to: int | None = None
-    details: dict = field(default_factory=dict)
-
-    def text(self) -> str:
-        if self.kind == "goal":
-            return self.message
-        if self.state is None:
-            return self.message
-        where = f"state {self.state}" + (f" -> {self.to}" if self.to is not None else "")
-        return f"{where}: {self.message}"
-
-    def as_json(self) -> dict:
-        return {"state": self.state, "to": self.to, "kind": self.kind, "message": self.text(),
-                **self.details}
-
-
-@dataclass
-class Report:
-    states: int
-    actions: int
-    motion_checks: int = 0
-    violations: list[Violation] = field(default_factory=list)
-    seconds: float = 0.0
-    tolerance: float = 0.0
-    resolution: float = 0.0
-    kinematics: str = ""
-    status: str | None = None
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def valid(self) -> bool:
-        return not self.violations
-
-    def summary(self) -> str:
-        counts = (f"{self.states} state{'s' if self.states != 1 else ''}, {self.actions} "
-                  f"action{'s' if self.actions != 1 else ''}, {self.motion_checks} motion checks")
-        if self.valid:
-            return f"valid: {counts}"
-        n = len(self.violations)
-        return f"invalid: {n} violation{'s' if n != 1 else ''} ({counts})"
-
-    def text(self) -> str:
-        lines = [self.summary()]
-        lines += [f"  {v.text()}" for v in self.violations[:SHOW]]
-        if len(self.violations) > SHOW:
-            lines.append(f"  ... and {len(self.violations) - SHOW} more (--json lists all)")
-        lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(lines)
-
-    def as_json(self) -> dict:
-        return {"valid": self.valid, "states": self.states, "actions": self.actions,
-                "motion_checks": self.motion_checks, "tolerance": self.tolerance,
-                "resolution": self.resolution, "kinematics": self.kinematics,
-                "status": self.status, "seconds": round(self.seconds, 3), "notes": self.notes,
-                "violations": [v.as_json() for v in self.violations]}
-
-
 @dataclass
 class _State:
     """A plan state resolved against the world."""
@@ -147,7 +83,7 @@ class Validator:
         self.T_base0 = _pose(spec.base_pose) if spec is not None else np.eye(4)
         self.link_index = {n: i for i, n in enumerate(self.desc.links)} if self.desc else {}
         self.defaults, self.controllable = self._defaults()
-        self._lua = None
+        self.predicates = Predicates(world, self.link_index, self.frame_T)
 
     # ---- the robot ------------------------------------------------------------------------------
     def _defaults(self) -> tuple[dict[str, float], set[str]]:
@@ -191,9 +127,9 @@ class Validator:
             self.add(prev.index, "action", f"the plan ends with action {_action_text(prev.action)}"
                      ": its effects need a following state (same configuration, the new mode)")
         self._check_goal(prev)
-        if self._lua is not None and self._lua[1]:
+        if self.predicates.lua_used:
             rep.notes.append("Lua predicates evaluated directly: " +
-                             ", ".join(sorted(self._lua[1])))
+                             ", ".join(sorted(self.predicates.lua_used)))
         rep.seconds = time.perf_counter() - t0
         return rep
 
@@ -518,61 +454,10 @@ class Validator:
 
     def _geometric(self, st: _State, decl, args) -> tuple[bool, float]:
         names = [self.logic.name(a) for a in args]
-        if decl.semantics is None:
-            return self._lua_predicate(st, decl, names)
-        from tmpc.lang.diagnostics import TmpcError
-        from .evaluate import Evaluator, Obj
-        ev = self._evaluator(st)
-        env = {p.name.key: Obj(n) for p, n in zip(decl.params, names)}
-        try:
-            truth = bool(ev.value(decl.semantics, env))
-            return truth, 0.0 if truth else float(ev.distance(decl.semantics, env))
-        except TmpcError as exc:
-            self.add(st.index, "precondition", f"({decl.name.text} {' '.join(names)}) cannot be "
-                     f"evaluated: {exc.diagnostics[0].message}")
-            return False, math.inf
-
-    def _evaluator(self, st: _State):
-        from tmpc.compiler.fk import Frames
-        from .evaluate import Evaluator
-        model = self.world.model
-        if model is None:
-            frames, q = None, None
-        else:
-            T = np.stack([st.link_T[self.link_index[n]] for n in model.frames])
-            frames = Frames(T[:, :3, :3], T[:, :3, 3])
-            q = np.array([{"base_x": st.T_root[0, 3], "base_y": st.T_root[1, 3],
-                           "base_yaw": heading(st.T_root)}.get(n, st.values.get(n, 0.0))
-                          for n in model.q_names])
-        return Evaluator(self.scene, model, q, frames, st.objects, self.world.program.scope)
-
-    def _lua_predicate(self, st: _State, decl, names) -> tuple[bool, float]:
-        """A legacy geometric predicate: its Lua function evaluated directly at the state."""
-        from tmpc.compiler.lua_trace import LuaFallback
-        from tmpc.compiler.state import matrix_to_quat
-        cfg = self.world.config
-        if self._lua is None:
-            from tmpc.lang.lua import load_lua_predicates
-            module = load_lua_predicates(cfg.semantics) if cfg and cfg.semantics else None
-            self._lua = (module, set())
-        module = self._lua[0]
-        fn = module.lookup(decl.name.text) if module is not None else None
-        if fn is None:
-            self.add(st.index, "precondition", f"({decl.name.text} {' '.join(names)}) has no "
-                     "semantics: no inline body and no Lua function of that name")
-            return False, math.inf
-        self._lua[1].add(decl.name.text)
-        poses, supports = [], []
-        for n in names:
-            T = self.frame_T(st, n)
-            T = np.eye(4) if T is None else T
-            poses.append(list(T[:3, 3]) + list(matrix_to_quat(T[:3, :3])))
-            o = self.scene.object(n)
-            supports.append(None if o is None or o.support is None else
-                            (tuple(o.support.lower), tuple(o.support.upper)))
-        fb = LuaFallback(module, fn, ("object",) * len(names))
-        d, _ = fb(np.array(poses), supports, names, gradient=False)
-        return d <= 1e-3, float(d)
+        truth, dist, problem = self.predicates.evaluate(st, decl, names)
+        if problem is not None:
+            self.add(st.index, "precondition", problem)
+        return truth, dist
 
 
 # ---------------------------------------------------------------------------------------------
