@@ -127,6 +127,7 @@ class Validator:
             self.add(prev.index, "action", f"the plan ends with action {_action_text(prev.action)}"
                      ": its effects need a following state (same configuration, the new mode)")
         self._check_goal(prev)
+        rep.violations.sort(key=_order)
         if self.predicates.lua_used:
             rep.notes.append("Lua predicates evaluated directly: " +
                              ", ".join(sorted(self.predicates.lua_used)))
@@ -508,6 +509,16 @@ def _held_order(held: dict[str, str]) -> list[str]:
     for o in held:
         visit(o)
     return out
+
+
+def _order(v: Violation) -> tuple:
+    """Report order: plan-wide first, then by state (a motion after its first state's own
+    violations), the goal last; stable otherwise."""
+    if v.state is None:
+        return (0, 0, 0)
+    if v.kind == "goal":
+        return (2, 0, 0)
+    return (1, v.state, 0 if v.to is None else 1)
 
 
 def _norm_action(a):
