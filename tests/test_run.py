@@ -1,0 +1,181 @@
+"""`tmpc run`: the unified planner on the bundled clutter example, its plans checked by the
+independent validator, determinism, partial results, and the pre-checks' errors."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tmpc.lang.diagnostics import TmpcError
+from tmpc.runtime.worlds import clutter_problem, clutter_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+CLUTTER = ROOT / "examples" / "clutter" / "clutter.toml"
+
+
+@pytest.fixture(scope="session")
+def clutter_problem_1():
+    """The bundled 1-stick clutter problem, compiled once for every test here."""
+    from tmpc.runtime.tmp_problem import TmpProblem
+    from tmpc.runtime.world import load_world
+    problem = TmpProblem(load_world(CLUTTER))
+    problem.warm_up(np.random.default_rng(0))
+    return problem
+
+
+def _solve(problem, seed, time_limit=60.0):
+    from tmpc.runtime.unified import UnifiedPlanner
+    return UnifiedPlanner(problem, seed=seed).solve(time_limit)
+
+
+def _validate(problem, result, tmp_path, seed=0):
+    from tmpc.runtime.plan_output import plan_document, write_json_atomic
+    from tmpc.runtime.validate import validate_plan
+    doc = plan_document(problem, result, planner="unified", seed=seed, input_path=str(CLUTTER),
+                        setup_seconds=0.0)
+    path = tmp_path / f"plan-{seed}.json"
+    write_json_atomic(path, doc)
+    return doc, validate_plan(problem.world, str(path))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_plans_validate_independently(clutter_problem_1, tmp_path, seed):
+    result = _solve(clutter_problem_1, seed)
+    assert result.status == "solved"
+    doc, report = _validate(clutter_problem_1, result, tmp_path, seed)
+    assert report.valid, report.text() if hasattr(report, "text") else report
+    # the plan moves the stick to table3 with one gripper and back to empty hands
+    assert [a.split()[0] for a in doc["actions"]] == ["(pickup", "(putdown"]
+    assert doc["actions"][1].split()[2] == "table3"
+    last = doc["states"][-1]
+    assert "(on-surface blue_stick_1 table3)" in last["mode"]["atoms"]
+    assert last["mode"]["held"] == {}
+    # every movable joint is reported, continuous ones included
+    assert set(clutter_problem_1.model.q_names[3:]) <= set(last["joints"])
+
+
+def test_same_seed_same_plan(clutter_problem_1):
+    a, b = _solve(clutter_problem_1, 7), _solve(clutter_problem_1, 7)
+    assert [x[2] and x[2].name for x in a.path] == [x[2] and x[2].name for x in b.path]
+    assert np.array_equal(np.array([x[0] for x in a.path]), np.array([x[0] for x in b.path]))
+
+
+def test_held_object_follows_the_gripper(clutter_problem_1, tmp_path):
+    result = _solve(clutter_problem_1, 0)
+    doc, _ = _validate(clutter_problem_1, result, tmp_path)
+    held = [s for s in doc["states"] if s["mode"]["held"]]
+    assert held, "the stick is never held"
+    frame = held[0]["mode"]["held"]["blue_stick_1"]
+    fk = clutter_problem_1.world.fk
+    model = clutter_problem_1.model
+    offsets = []
+    for s in held:
+        q = _q_of(model, s)
+        f = fk(q)
+        R, p = np.asarray(f.R)[model.frame(frame)], np.asarray(f.p)[model.frame(frame)]
+        obj = np.asarray(s["object_poses"]["blue_stick_1"]["translation"])
+        offsets.append(R.T @ (obj - p))
+    assert np.allclose(offsets, offsets[0], atol=1e-9)
+
+
+def _q_of(model, state):
+    import math
+    base = state["base_pose"]
+    x, y, _ = base["translation"]
+    qx, qy, qz, qw = base["rotation"]
+    yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+    values = {"base_x": x, "base_y": y, "base_yaw": yaw, **state["joints"]}
+    return np.array([values[n] for n in model.q_names])
+
+
+def test_time_limit_gives_partial_progress(clutter_problem_1):
+    result = _solve(clutter_problem_1, 0, time_limit=1e-9)
+    assert result.status == "partial"
+    assert len(result.path) >= 1
+    assert np.allclose(result.path[0][0], clutter_problem_1.q0)
+
+
+# ---- the command line and its errors ------------------------------------------------------------
+
+def _tmpc(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def _world_dir(tmp_path, scene: dict, problem: str) -> Path:
+    shutil.copy(ROOT / "examples" / "clutter" / "domain.pddl", tmp_path / "domain.pddl")
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    (tmp_path / "problem.pddl").write_text(problem)
+    cfg = tmp_path / "run.toml"
+    cfg.write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
+                   'scene = "scene.json"\n')
+    return cfg
+
+
+def test_start_in_collision_names_the_pair(tmp_path):
+    scene = clutter_scene(1)
+    stick = next(o for o in scene["objects"] if o["name"] == "blue_stick_1")
+    stick["pose"]["translation"] = [0.0, 0.0, 0.15]         # inside the robot's base
+    cfg = _world_dir(tmp_path, scene, clutter_problem(1))
+    r = _tmpc("run", cfg, "-o", tmp_path / "plan.json")
+    assert r.returncode == 1, r.stderr
+    assert "E823" in r.stderr and "blue_stick_1" in r.stderr
+    assert "Traceback" not in r.stderr
+    assert not (tmp_path / "plan.json").exists()
+
+
+def test_object_missing_from_scene(tmp_path):
+    problem = clutter_problem(1).replace("blue_stick_1 - stick", "blue_stick_1 ghost - stick")
+    problem = problem.replace("(on-surface blue_stick_1 table1)",
+                              "(on-surface blue_stick_1 table1) (on-surface ghost table1)")
+    problem = problem.replace("(on-surface blue_stick_1 table3)",
+                              "(on-surface blue_stick_1 table3) (on-surface ghost table3)")
+    cfg = _world_dir(tmp_path, clutter_scene(1), problem)
+    r = _tmpc("run", cfg)
+    assert r.returncode == 1 and "E822" in r.stderr and "ghost" in r.stderr, r.stderr
+
+
+def test_unreachable_goal_is_reported_at_once(tmp_path):
+    # no manipulator: nothing can ever pick the stick up
+    problem = """(define (problem no-hands) (:domain clutter)
+  (:objects table1 table2 table3 table4 - surface blue_stick_1 - stick)
+  (:init (on-surface blue_stick_1 table1))
+  (:goal (on-surface blue_stick_1 table3)))"""
+    cfg = _world_dir(tmp_path, clutter_scene(1), problem)
+    r = _tmpc("run", cfg)
+    assert r.returncode == 1 and "E824" in r.stderr, r.stderr
+
+
+def test_unknown_planner(tmp_path):
+    r = _tmpc("run", CLUTTER, "--planner", "nope")
+    assert r.returncode == 1 and "E826" in r.stderr and "unified" in r.stderr, r.stderr
+
+
+def test_make_planner_rejects_bad_bias(clutter_problem_1):
+    from types import SimpleNamespace
+    from tmpc.runtime.run_command import make_planner
+    with pytest.raises(TmpcError) as exc:
+        make_planner("unified", clutter_problem_1, 0, SimpleNamespace(heuristic_bias=1.5))
+    assert exc.value.diagnostics[0].code == "E825"
+
+
+def test_cli_run_writes_plan_and_legacy_arrays(tmp_path):
+    out, legacy = tmp_path / "plan.json", tmp_path / "planet.json"
+    r = _tmpc("run", CLUTTER, "--seed", "0", "-o", out, "-q")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out.read_text())
+    assert doc["format"] == "tmpc-plan/1" and doc["status"] == "solved"
+    assert doc["input"]["digest"].startswith("sha256:")
+    r = _tmpc("run", CLUTTER, "--seed", "0", "-o", legacy, "--legacy-output", "planet", "-q")
+    assert r.returncode == 0, r.stderr
+    states = json.loads(legacy.read_text())
+    acts = [s["action"] for s in states if s["action"]]
+    assert acts == [a.strip("()").split() for a in doc["actions"]]
+    r = _tmpc("validate", CLUTTER, out)
+    assert r.returncode == 0, r.stdout + r.stderr
