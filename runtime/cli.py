@@ -134,6 +134,11 @@ def cmd_view(args) -> int:
     return run_view(args)
 
 
+def cmd_bench(args) -> int:
+    from tmpc.runtime.bench_command import run_bench
+    return run_bench(args)
+
+
 COMMANDS: dict[str, tuple[Callable, str]] = {
     "check": (cmd_check, "check PDDL domains, problems and modules; scenes, configs, URDF, Lua"),
     "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
@@ -144,6 +149,7 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "run": (cmd_run, "task and motion planning: a collision-free, action-annotated trajectory"),
     "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
+    "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
 }
 
 
@@ -246,6 +252,19 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--png", metavar="OUT.png", help="snapshot")
         p.add_argument("--state", type=int, default=None, metavar="I",
                        help="which state the PNG shows (default: the last)")
+    elif name == "bench":
+        p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
+                       "artifacts (one problem each)")
+        p.add_argument("--planners", default="unified", help="comma-separated planner names")
+        p.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 per problem "
+                       "(default 10)")
+        p.add_argument("--time-limit", type=float, default=120.0, metavar="S",
+                       help="per run (default 120)")
+        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON")
+        p.add_argument("--ompl-log", metavar="RESULTS.log", help="results in OMPL's benchmark "
+                       "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
+        p.add_argument("--validate", action="store_true", help="check every plan with the "
+                       "independent validator")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
