@@ -84,6 +84,8 @@ class Validator:
         self.link_index = {n: i for i, n in enumerate(self.desc.links)} if self.desc else {}
         self.defaults, self.controllable = self._defaults()
         self.predicates = Predicates(world, self.link_index, self.frame_T)
+        self.mounted = self._mounted()
+        self._linked: set[str] = set()
 
     # ---- the robot ------------------------------------------------------------------------------
     def _defaults(self) -> tuple[dict[str, float], set[str]]:
@@ -117,6 +119,7 @@ class Validator:
         if plan.form == "array":
             rep.notes.append("a bare state array: modes reconstructed by simulation")
         self.v = rep.violations
+        self._linked = set()
         self._check_action_list(plan)
         prev: _State | None = None
         for ps in plan.states:
@@ -225,11 +228,37 @@ class Validator:
         return Facts(frozenset(atoms), expected.numbers)
 
     def _held(self, facts: Facts) -> dict[str, str]:
+        """Held objects: the kinematic atoms' children; an object the scene mounts on the robot
+        (its parent chain ends at a robot frame) counts as held by it while no kinematic atom of
+        the plan so far names it."""
         out = {}
         for a in facts.atoms:
             pc = self.logic.kinematic(a)
             if pc is not None:
                 out[self._object_name(pc[1])] = self._frame_name(pc[0])
+                self._linked.add(self._object_name(pc[1]))
+        for obj, frame in self.mounted.items():
+            if obj not in out and obj not in self._linked:
+                out[obj] = frame
+        return out
+
+    def _mounted(self) -> dict[str, str]:
+        """Objects whose scene parent chain ends at a robot frame (or the robot: its root)."""
+        out = {}
+        robot = self.scene.robot
+        for o in self.scene.objects:
+            anchor, seen = o.parent, {o.name.lower()}
+            while anchor is not None and self.scene.object(anchor) is not None \
+                    and anchor.lower() not in seen:
+                seen.add(anchor.lower())
+                anchor = self.scene.object(anchor).parent
+            if anchor is None or robot is None:
+                continue
+            if anchor.lower() == robot.name.lower() and self.desc is not None:
+                out[o.name] = self.desc.root
+            elif self.desc is not None and (anchor in self.link_index or
+                                            self.desc.joint(anchor) is not None):
+                out[o.name] = anchor
         return out
 
     def _object_name(self, key: str) -> str:
@@ -568,12 +597,26 @@ def _check_numbers(tolerance, resolution) -> None:
                                "number > 0 (rad or m)", None, "e.g. 0.05"))
 
 
+def _digest(path) -> str | None:
+    import hashlib
+    from pathlib import Path
+    try:
+        return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
 def run_validate(args) -> int:
     from .world import load_world
     _check_numbers(args.tolerance, args.resolution)
     plan = read_plan(args.plan)
     world = load_world(args.input)
     report = validate_plan(world, plan, args.tolerance, args.resolution)
+    made_for = (plan.meta.get("input") or {}).get("digest") if isinstance(
+        plan.meta.get("input"), dict) else None
+    if made_for and made_for != _digest(args.input):
+        report.notes.append(f"the plan was made for a different version of {args.input} "
+                            "(its input digest differs)")
     if args.json:
         sys.stdout.write(json.dumps(report.as_json(), indent=2) + "\n")
     else:

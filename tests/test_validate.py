@@ -260,6 +260,28 @@ def test_penetration_tolerance(tmp_path, plan):
     assert {v.kind for v in loose.violations} == {"goal"}
 
 
+def test_objects_mounted_on_the_robot_ride_along(tmp_path, plan):
+    """An object whose scene parent is a robot link is held by it from the start."""
+    import shutil
+    from tmpc.runtime.validate import Validator
+    from tmpc.runtime.world import load_world
+    for f in ("domain.pddl", "problem.pddl", "tabletop.toml"):
+        shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
+    scene = json.loads((EXAMPLES / "tabletop" / "scene.json").read_text())
+    scene["objects"].append({"name": "tool", "parent": "panda_hand", "movable": True,
+                             "pose": {"translation": [0, 0, 0.02], "rotation": [0, 0, 0, 1]},
+                             "shape": {"type": "sphere", "radius": 0.01}})
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    v = Validator(load_world(tmp_path / "tabletop.toml"))
+    for s in plan["states"]:
+        s["mode"]["held"]["tool"] = "panda_hand"
+    rep = validate(v, plan)
+    assert rep.valid, rep.text()
+    plan["states"][0]["object_poses"]["tool"] = {"translation": [0, 0, 1]}
+    first = validate(v, plan).violations[0]
+    assert (first.state, first.kind) == (0, "initial") and "object `tool`" in first.message
+
+
 LUA = """local t = require('tmit-star')
 local m = t.math
 return {
