@@ -148,7 +148,8 @@ def write_html(world, plan_dict, path) -> int:
     """Write the animated page of ``plan_dict`` (a tmpc-plan/1 dict, a bare state array, or a
     :class:`~tmpc.runtime.plan_file.Plan`) to ``path``; returns its size in bytes."""
     plan = _as_plan(plan_dict)
-    name = Path(world.scene.path).stem if world.config is None else Path(world.config.path).stem
+    src = Path(world.config.path if world.config is not None else world.scene.path)
+    name = f"{src.parent.name}/{src.name}" if src.parent.name else src.name
     text = html_page(page_data(world, plan, f"tmpc plan: {name} ({len(plan.states)} states, "
                                             f"{plan.action_count} actions)"))
     data = text.encode("utf-8")

@@ -188,15 +188,13 @@ class Poser:
         self.link_nodes: dict[str, int] = {}
         if self.desc is not None:
             for link in self.desc.links:
-                for g in self.desc.visual.get(link, []):
-                    if link not in self.link_nodes:
-                        self.link_nodes[link] = len(s.nodes)
-                        s.nodes.append(link)
-                    color = g.rgba[:3] if g.rgba is not None else None
-                    for m in self._geom_meshes(g, faces):
-                        if color is not None:
-                            m = TriMesh(m.vertices, m.faces, tuple(color))
-                        s.parts.append(Part(self.link_nodes[link], m, g.origin))
+                parts = self._link_parts(link, self.desc.visual.get(link, []), faces)
+                if not parts:       # no visual, or none loadable (COLLADA without pycollada)
+                    parts = self._link_parts(link, self.desc.collision.get(link, []), faces)
+                if parts:
+                    self.link_nodes[link] = len(s.nodes)
+                    s.nodes.append(link)
+                    s.parts += [Part(self.link_nodes[link], m, T) for m, T in parts]
         self.object_nodes: dict[str, int] = {}
         for o in self.scene.objects:
             if o.shape is None:
@@ -207,6 +205,16 @@ class Poser:
                 s.parts.append(Part(len(s.nodes) - 1, TriMesh(m.vertices, m.faces,
                                                               object_color(o.name, o.movable)),
                                     np.eye(4)))
+
+    def _link_parts(self, link: str, geoms, faces) -> list[tuple[TriMesh, np.ndarray]]:
+        out = []
+        for g in geoms:
+            color = g.rgba[:3] if g.rgba is not None else None
+            for m in self._geom_meshes(g, faces):
+                if color is not None:
+                    m = TriMesh(m.vertices, m.faces, tuple(color))
+                out.append((m, g.origin))
+        return out
 
     def _geom_meshes(self, g, faces) -> list[TriMesh]:
         if g.kind == "mesh":

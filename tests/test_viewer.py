@@ -127,6 +127,15 @@ def test_bare_state_array_page(tabletop, plan, tmp_path):
     assert len(data["states"]) == len(states)
 
 
+def test_unloadable_visual_meshes_fall_back_to_collision_geometry(tabletop, monkeypatch):
+    from tmpc.runtime import viewer_scene
+    real = viewer_scene.load_visual
+    monkeypatch.setattr(viewer_scene, "load_visual",
+                        lambda path, scale: [] if str(path).endswith(".dae") else real(path, scale))
+    poser = viewer_scene.Poser(tabletop, 300)
+    assert {"panda_link0", "panda_link7", "panda_hand"} <= set(poser.link_nodes)
+
+
 def test_decimation_keeps_the_shape():
     import trimesh
     from tmpc.runtime.viewer import decimate
