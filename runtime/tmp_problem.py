@@ -133,7 +133,8 @@ class TmpProblem:
         t = time.perf_counter()
         starts = self.uniform(rng, PROJECTION_BATCH)
         mode = self.initial
-        for action in {a.schema: a for a in self.ground.actions if a.pre_geometric}.values():
+        for action in {a.schema: a for a in self.ground.actions
+                       if self.has_geometry(a)}.values():
             formula, proj, _ = self.projector(action.schema)
             args = self.compiled.bind_args(formula, list(action.args))
             np.asarray(proj(starts, mode.obj_T, mode.obj_parent, args)[0])
@@ -212,6 +213,12 @@ class TmpProblem:
                 self._goal = (formula, make_projector(kernel, self.lower, self.upper,
                                                       iterations=self.iterations), kernel)
         return None if self._goal[0] is None else self._goal
+
+    def has_geometry(self, action) -> bool:
+        """Does ``action``'s precondition have geometric literals the projector must satisfy?"""
+        if action.pre_geometric:
+            return True
+        return action.pre.extra is not None and _has_geo(action.pre.extra)
 
     def project(self, mode: Mode, action, starts: np.ndarray) -> np.ndarray:
         """Configurations (k, n) from ``starts`` where ``action``'s geometric precondition (the

@@ -200,6 +200,13 @@ class UnifiedPlanner:
         # the newest mode of that symbolic state half of the time, else any of them
         mode = self.modes[modes[-1] if self.rng.random() < 0.5 else
                           modes[int(self.rng.integers(len(modes)))]]
+        if action is not None and not p.has_geometry(action):
+            # a purely discrete action happens wherever the robot already is in that mode
+            nodes = self.mode_nodes[mode.id]
+            node = nodes[int(self.rng.integers(len(nodes)))]
+            self.e_succ[e] += 1.0
+            self._transition(node, mode, action)
+            return
         t = time.perf_counter()
         starts = self._starts(mode)
         p.timers.sampling += time.perf_counter() - t
