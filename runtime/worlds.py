@@ -48,9 +48,11 @@ def _table(name: str) -> dict:
     top = TABLE_HALF[2]
     return {"name": name, "pose": _pose(x, y, top, yaw),
             "shape": {"type": "box", "half_extents": list(TABLE_HALF)},
-            # where a resting object's origin may be: over the top, up to 17 cm above it
+            # where a placed stick's origin may be: over the top, its bottom at most 3 cm above
+            # it (the collision check keeps it out of the table)
             "support": {"lower": [-TABLE_HALF[0] + 0.05, -TABLE_HALF[1] + 0.05, top],
-                        "upper": [TABLE_HALF[0] - 0.05, TABLE_HALF[1] - 0.05, top + 0.17]}}
+                        "upper": [TABLE_HALF[0] - 0.05, TABLE_HALF[1] - 0.05,
+                                  top + 2 * STICK_HALF[2] + 0.03]}}
 
 
 SLOTS_PER_TABLE = 16

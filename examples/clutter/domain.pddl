@@ -10,13 +10,14 @@
     (holding ?m - manipulator ?x - stick :kinematic (link ?m ?x))
     ; the gripper's tool frame is close enough to grasp the stick
     (at ?m - manipulator ?x - stick :semantics (near ?m ?x 0.05))
-    ; the gripper is over the table's support region, at most 30 cm above it
-    (above ?m - manipulator ?s - surface :semantics (over-support ?m ?s 0.3)))
+    ; the stick stands over the table's support region, upright and low enough to count as
+    ; put down (the collision check keeps it out of the table)
+    (placed ?x - stick ?s - surface :semantics (and (on-support ?x ?s) (upright ?x 0.2))))
   (:action pickup
     :parameters (?x - stick ?s - surface ?m - manipulator)
     :precondition (and (on-surface ?x ?s) (arm-empty ?m) (at ?m ?x))
     :effect (and (holding ?m ?x) (not (on-surface ?x ?s)) (not (arm-empty ?m))))
   (:action putdown
     :parameters (?x - stick ?s - surface ?m - manipulator)
-    :precondition (and (holding ?m ?x) (above ?m ?s))
+    :precondition (and (holding ?m ?x) (placed ?x ?s))
     :effect (and (arm-empty ?m) (on-surface ?x ?s) (not (holding ?m ?x)))))

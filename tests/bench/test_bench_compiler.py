@@ -57,8 +57,8 @@ def test_kernel_throughput_and_projection(tmp_path):
     rows = []
     for label, name, args in [("PR2 gripper `at` (FK)", "at", ["r_gripper_tool_frame",
                                                                "blue_stick_1"]),
-                              ("PR2 gripper `above` (FK)", "above", ["l_gripper_tool_frame",
-                                                                     "table3"])]:
+                              ("PR2 left gripper `at` (FK)", "at", ["l_gripper_tool_frame",
+                                                                    "blue_stick_1"])]:
         f = cp.predicate(name)
         k, _ = cp.kernels(f)
         ids = cp.bind_args(f, args)
