@@ -148,7 +148,8 @@ class TmpProblem:
                         if self.model.frame(e.parent) is not None}
                        | {self.model.frame(e.parent) for a in self.ground.actions
                           for e in a.kinematic if self.model.frame(e.parent) is not None})
-        for n in (1, 8, PROJECTION_BATCH, 64, 256, 1024):
+        from .collision import PAD_SIZES
+        for n in PAD_SIZES:
             self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
                                        attached=mode.held)
         spent = time.perf_counter() - t
