@@ -82,6 +82,7 @@ def write_json_atomic(path, data) -> None:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             json.dump(data, f, indent=1)
             f.write("\n")
+        os.chmod(tmp, 0o666 & ~_umask())      # mkstemp makes 0600; a plan file is shareable
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -89,3 +90,9 @@ def write_json_atomic(path, data) -> None:
         except OSError:
             pass
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
