@@ -113,7 +113,10 @@ class _Text:
         self.asserts.append(assertion)
 
     def render(self) -> str:
-        return "".join(f"(declare-const {d} Bool)" for d in self.decls) + "".join(self.asserts)
+        return self.render_decls() + "".join(self.asserts)
+
+    def render_decls(self) -> str:
+        return "".join(f"(declare-const {d} Bool)" for d in self.decls)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -253,6 +256,9 @@ class Encoding:
     init: str
     step: str
     goal: str
+    #: declarations of ``goal``'s auxiliaries (Z3 keeps declarations across push/pop: declare
+    #: them once per horizon, assert ``goal`` each time)
+    goal_decls: str
     #: the goal as literals over layer ``@K`` (assumptions or asserted in a scope)
     goal_literals: tuple[str, ...]
     #: per action id, the first step it can be (relaxed planning graph level + 1)
@@ -276,9 +282,9 @@ class Encoding:
         late = [j for j, s in enumerate(self.first_step) if s > k]
         return text + "".join(f"(assert (not a{j}@{k}))" for j in late)
 
-    def goal_text(self, k: int) -> tuple[str, list[str]]:
-        """The goal's definitions in layer ``k`` and its literals."""
-        return (self.goal.replace("@K", f"@{k}"),
+    def goal_text(self, k: int) -> tuple[str, str, list[str]]:
+        """The goal in layer ``k``: declarations, definitions and its literals."""
+        return (self.goal_decls.replace("@K", f"@{k}"), self.goal.replace("@K", f"@{k}"),
                 [lit.replace("@K", f"@{k}") for lit in self.goal_literals])
 
     def landmark_text(self, horizon: int, guard: str | None = None) -> str:
@@ -359,7 +365,8 @@ def encode(problem: GroundProblem, geometric: bool = False, amo: str = "pb",
     goal, goal_lits = _goal_template(problem, geo_index)
     first, goal_level = relaxed_levels(problem)
     return Encoding(problem, geometric, amo, frozenset(relevant), tuple(geo), layer.render(),
-                    init.render(), step.render(), goal.render(), tuple(goal_lits),
+                    init.render(), step.render(), "".join(goal.asserts), goal.render_decls(),
+                    tuple(goal_lits),
                     tuple(first), goal_level, landmarks,
                     {"layer": layer.size, "init": init.size, "step": step.size,
                      "goal": goal.size})
@@ -376,7 +383,7 @@ def smtlib_templates(problem: GroundProblem, geometric: bool = False,
         "layer": enc.layer,
         "init": enc.init,
         "step": enc.step,
-        "goal": enc.goal,
+        "goal": enc.goal_decls + enc.goal,
         "goal-literals": "\n".join(enc.goal_literals),
     }
 

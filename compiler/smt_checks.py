@@ -86,12 +86,31 @@ def unreachable_goal_atoms(gp: GroundProblem) -> list[int]:
     return sorted(i for i in gp.goal.pos if not (reached >> i) & 1)
 
 
+def unreachable_goal_names(program: CheckedProgram, gp: GroundProblem) -> list[str]:
+    """The goal's top-level atoms that can never be true, as the user wrote them: state atoms the
+    delete relaxation never reaches, and atoms of predicates no action changes that are not in
+    ``:init`` (grounding folds those to false)."""
+    out = [gp.atom_name(i) for i in unreachable_goal_atoms(gp)]
+    goal = program.problem.goal if program.problem is not None else None
+    sc = program.scope
+    for atom in _top_positive_atoms(goal):
+        decl = sc.predicates.get(atom.pred.key)
+        if decl is None or decl.kind is A.Kind.GEOMETRIC or \
+                not all(isinstance(t, A.Const) for t in atom.args):
+            continue
+        args = tuple(t.name.key for t in atom.args)
+        if gp.atom_id(atom.pred.key, *args) is None and \
+                (atom.pred.key, args) not in gp.static_facts:
+            out.append("(" + " ".join([atom.pred.text] + [t.name.text for t in atom.args]) + ")")
+    return out
+
+
 def _goal_warning(program: CheckedProgram, gp: GroundProblem) -> Diagnostic:
-    atoms = unreachable_goal_atoms(gp)
+    atoms = unreachable_goal_names(program, gp)
     goal = program.problem.goal
     span = goal.span if goal is not None else program.problem.name.span
     if atoms:
-        names = ", ".join(gp.atom_name(i) for i in atoms[:5]) + (" ..." if len(atoms) > 5 else "")
+        names = ", ".join(atoms[:5]) + (" ..." if len(atoms) > 5 else "")
         msg = f"the goal can never be reached: no sequence of actions makes {names} true"
     else:
         msg = "the goal can never be reached, even ignoring delete effects"
@@ -203,4 +222,5 @@ def _to_z3(z3, ctx, f, env: dict[str, str], positive: bool, counter):
     return fresh()                                      # numeric comparisons and the rest
 
 
-__all__ = ["static_checks", "unreachable_goal_atoms", "CHECK_MAX_BINDINGS"]
+__all__ = ["static_checks", "unreachable_goal_atoms", "unreachable_goal_names",
+           "CHECK_MAX_BINDINGS"]

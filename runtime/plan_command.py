@@ -110,11 +110,11 @@ def _load(domain: str, problem: str, verbose: bool):
 
 
 def _unreachable(gp, prog):
-    from tmpc.compiler.smt_checks import unreachable_goal_atoms
-    atoms = unreachable_goal_atoms(gp)
+    from tmpc.compiler.smt_checks import unreachable_goal_names
+    atoms = unreachable_goal_names(prog, gp)
     span = prog.problem.goal.span if prog.problem.goal is not None else None
     if atoms:
-        names = ", ".join(gp.atom_name(i) for i in atoms[:5]) + (" ..." if len(atoms) > 5 else "")
+        names = ", ".join(atoms[:5]) + (" ..." if len(atoms) > 5 else "")
         what = f"no sequence of actions can make {names} true"
     else:
         what = "the goal cannot be reached even when delete effects are ignored"
@@ -151,19 +151,26 @@ def plan_text(actions, uses_costs: bool) -> str:
 
 
 def write_atomically(path: str, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, with
+    the permissions a plain write would give (mkstemp's are 0600)."""
     target = Path(path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or ".")
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
     except OSError as exc:
         raise InputError(error("E614", f"cannot write {path}: {exc.strerror}", None)) from None
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, target)
-    except OSError as exc:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
-        raise InputError(error("E614", f"cannot write {path}: {exc.strerror}", None)) from None
+        if isinstance(exc, OSError):
+            raise InputError(error("E614", f"cannot write {path}: {exc.strerror}",
+                                   None)) from None
+        raise
 
 
 def _describe(planner) -> None:

@@ -120,7 +120,9 @@ class TaskPlanner:
             (None if self.encoding.goal_level is None else 0)
         self.stats: list[HorizonStats] = []
         self._pending: list[tuple[int, str]] = []           # (layer needed, assertions)
-        self._goals: set[int] = set()                       # horizons whose goal is defined
+        self._goals: set[int] = set()                       # horizons whose goal is declared
+        self._assumed: set[int] = set()                     # ... and asserted (assumptions)
+        self._selectors: set[int] = set()                   # declared h@n
         self._sizes: dict[int, tuple[int, int, float]] = {}
         self._extend_to(0)
 
@@ -164,9 +166,9 @@ class TaskPlanner:
             self._sizes[n] = (clauses + len(ready), variables, time.perf_counter() - t0)
 
     def _add(self, layer: int, clause: list[str], declare: str = "") -> None:
-        """Assert ``clause`` now, or once ``layer`` is encoded. ``declare``: a variable the
-        clause introduces."""
-        text = (f"(declare-const {declare} Bool)" if declare else "") + _assert(clause)
+        """Assert ``clause`` now, or once ``layer`` is encoded. ``declare``: declarations of the
+        variables the clause introduces."""
+        text = declare + _assert(clause)
         if layer <= self.layers:
             self.solver.from_string(text)
         else:
@@ -184,7 +186,8 @@ class TaskPlanner:
         (the clause holds only at horizon ``len(plan)``, through its selector ``h@n``)."""
         plan = list(plan)
         n = len(plan)
-        self._add(n, self.encoding.prefix_clause(plan) + [f"(not h@{n})"], f"h@{n}")
+        self._add(n, self.encoding.prefix_clause(plan) + [f"(not h@{n})"],
+                  self._declare_selector(n))
 
     def add_evidence(self, prefix: Iterable[GroundAction], literal: GeoLiteral | tuple,
                      value: bool) -> bool:
@@ -267,11 +270,15 @@ class TaskPlanner:
             self.exclude_plan(result.actions)
 
     def _check(self, k: int, deadline: float | None) -> tuple[str, float]:
-        """Is there a plan of horizon ``k``? The goal literals of layer ``k`` and the horizon
-        selector ``h@k`` are assumed (or asserted in a scope)."""
+        """Is there a plan of horizon ``k``? The goal literals of layer ``k``, the horizon
+        selector ``h@k`` and the counting constraints of ``k`` are asserted in a scope (or
+        assumed, the constraints guarded by ``h@k``)."""
         z3 = self.z3
-        text, lits = self.encoding.goal_text(k)
+        decls, text, lits = self.encoding.goal_text(k)
         lits = lits + [f"h@{k}"]
+        if k not in self._goals:                # Z3 keeps declarations across push/pop
+            self._goals.add(k)
+            self.solver.from_string(self._declare_selector(k) + decls)
         if deadline is not None:
             self.solver.set("timeout", max(1, int((deadline - time.perf_counter()) * 1000)))
             self._timeout_set = True
@@ -281,21 +288,26 @@ class TaskPlanner:
         t0 = time.perf_counter()
         if self.goal_mode == "scope":
             self.solver.push()
-            self.solver.from_string(f"(declare-const h@{k} Bool)" + text +
-                                    "".join(f"(assert {lit})" for lit in lits) +
+            self.solver.from_string(text + "".join(f"(assert {lit})" for lit in lits) +
                                     self.encoding.landmark_text(k))
             r = self.solver.check()
             model = self.solver.model() if r == z3.sat else None
             self.solver.pop()
         else:
-            if k not in self._goals:
-                self._goals.add(k)
-                self.solver.from_string(f"(declare-const h@{k} Bool)" + text +
-                                        self.encoding.landmark_text(k, f"h@{k}"))
+            if k not in self._assumed:
+                self._assumed.add(k)
+                self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
             r = self.solver.check(*[_lit_expr(z3, lit) for lit in lits])
             model = self.solver.model() if r == z3.sat else None
         self._model = model
         return str(r), time.perf_counter() - t0
+
+    def _declare_selector(self, n: int) -> str:
+        """The declaration of ``h@n`` the first time it is needed, else nothing."""
+        if n in self._selectors:
+            return ""
+        self._selectors.add(n)
+        return f"(declare-const h@{n} Bool)"
 
     def _extract(self, k: int) -> list[GroundAction]:
         steps: dict[int, int] = {}
