@@ -291,7 +291,7 @@ class Bench:
         return {
             "format": FORMAT,
             "status": status,
-            "command": ["tmpc", "bench", *map(str, self.args.inputs)],
+            "command": self.command(),
             "settings": {"planners": self.planners, "seeds": self.args.seeds,
                          "time_limit": self.args.time_limit, "validate": bool(self.args.validate)},
             "host": host_info(),
@@ -304,6 +304,13 @@ class Bench:
             "summary": self.summary(),
             "bugs": self.bugs,
         }
+
+    def command(self) -> list[str]:
+        """The command line that reproduces this sweep (outputs left out)."""
+        a = self.args
+        return ["tmpc", "bench", *map(str, a.inputs), "--planners", ",".join(self.planners),
+                "--seeds", str(a.seeds), "--time-limit", f"{a.time_limit:g}",
+                *(["--validate"] if a.validate else [])]
 
     def save(self, status: str = "running") -> None:
         from .plan_output import write_json_atomic

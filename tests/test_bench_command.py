@@ -39,6 +39,8 @@ def test_json_records_every_run(swept):
     assert doc["format"] == "tmpc-bench/1" and doc["status"] == "complete"
     assert doc["settings"] == {"planners": ["unified"], "seeds": SEEDS, "time_limit": 30.0,
                                "validate": True}
+    assert doc["command"] == ["tmpc", "bench", str(CLUTTER), "--planners", "unified", "--seeds",
+                              str(SEEDS), "--time-limit", "30", "--validate"]
     assert len(doc["load"]["start"]) == 3 and doc["host"]["cpus"] >= 1
     (prob,) = doc["problems"]
     assert prob["name"] == "clutter" and prob["error"] is None
