@@ -41,6 +41,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "max_steps": (int, "longest task plan tried (tmit-star: 100)"),
     "batch_size": (int, "samples per mode per batch (tmit-star: 50)"),
     "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
+    "collision_tolerance": (float, "penetration depth (m) not counted as a collision (planet: "
+                                   "0.021, tmit-star: 0.029)"),
 }
 #: keys of planet's params TOML (its defaults are in PLANNER_PARAMS)
 PLANET_PARAMS = ("coin_bias", "gd_tries", "max_samples", "success_scale", "goal_weight")

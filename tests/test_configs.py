@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import FIXTURES
+from conftest import EXAMPLES, FIXTURES
 from test_scenes import pos_of, raises, where
 from tmpc.lang.configs import (CONFIG_LOADERS, PLANNER_PARAMS, load_config, load_planet_params,
                                toml_positions)
@@ -250,3 +250,18 @@ def test_every_legacy_config_loads():
     print(f"legacy configs: 2 planet TOML (run + params), {len(loaded)} of {len(specs)} "
           "tmit-star specs")
     assert len(loaded) >= 36
+
+
+def test_native_manifest_sets_the_collision_tolerance(tmp_path):
+    """`[planner] collision_tolerance` is the penetration depth `tmpc run`/`validate` ignore
+    (docs/planning.md); E823's help points users at it, so the manifest must accept it."""
+    from tmpc.runtime.validate import default_tolerance
+    from tmpc.runtime.world import load_world
+    d = copy_tree(EXAMPLES / "tabletop", tmp_path / "tabletop")
+    run = d / "tabletop.toml"
+    run.write_text(run.read_text() + "\n[planner]\ncollision_tolerance = 0.015\n")
+    c = load_config(run)
+    assert dict(c.params)["collision_tolerance"] == 0.015
+    assert default_tolerance(load_world(run, with_program=False)) == 0.015
+    run.write_text(run.read_text().replace("0.015", "-1"))
+    check_error("E512", run, "-1")
