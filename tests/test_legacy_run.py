@@ -97,3 +97,44 @@ def test_planet_legacy_output_validates(solved, tmp_path):
     path.write_text(json.dumps(states))
     report = validate_plan(problem.world, str(path))
     assert report.valid, report.text()
+
+
+# ---- the tmit-star example: the same task in tmit-star's formats ------------------------------
+
+TMIT_SORT = EXAMPLES / "tmit-star-sort" / "sort.json"
+
+
+def test_tmit_star_example_loads_and_traces():
+    from tmpc.compiler.lua_trace import trace_module
+    from tmpc.lang.configs import load_config
+    from tmpc.lang.lua import load_lua_predicates
+    from tmpc.lang.program import check_paths
+    cfg = load_config(TMIT_SORT)
+    assert cfg.format == "tmit-star-json" and dict(cfg.params)["min_steps"] == 4
+    checked = check_paths([cfg.domain, cfg.problem])
+    assert checked.ok, checked.diagnostics
+    holding = next(p for p in checked.programs[0].domain.predicates if p.name.text == "holding")
+    assert holding.kinematic is not None
+    external = {p.name.text: p for p in checked.programs[0].domain.predicates if p.external}
+    module = load_lua_predicates(cfg.semantics)
+    assert module.dialect == "tmit-star"
+    result = trace_module(module, external)
+    assert set(result.traced) == {"at", "above"} and not result.fallbacks
+    assert result.arg_kinds["above"] == ("object", "surface")
+
+
+@pytest.mark.slow
+def test_run_solves_the_tmit_star_example(tmp_path):
+    """A second world (the Panda on tmit-star's always-mobile base): compiled only under -m slow."""
+    from tmpc.runtime.plan_output import plan_document
+    from tmpc.runtime.run_command import plan_problem
+    from tmpc.runtime.validate import validate_plan
+    problem, result, setup = plan_problem(TMIT_SORT, seed=0, time_limit=60.0)
+    assert result.status == "solved", result.stats
+    doc = plan_document(problem, result, planner="unified", seed=0, input_path=str(TMIT_SORT),
+                        setup_seconds=setup)
+    assert "(putdown red_block table_b panda_hand_tcp_joint)" in doc["actions"]
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(doc))
+    report = validate_plan(problem.world, str(path))
+    assert report.valid, report.text()
