@@ -164,9 +164,24 @@ def trace_module(module: LuaModule, predicates: Mapping[str, A.PredicateDecl | i
     for name, (nargs, decl) in _wanted(predicates).items():
         _trace_one(module, name, nargs, decl, result)
     if strict and result.has_errors:
-        raise LuaError(result.diagnostics, module.files)
+        raise LuaError(result.diagnostics, _files(module, result.diagnostics))
     return result
 
+
+
+def _files(module: LuaModule, diags: list[Diagnostic]) -> dict:
+    """The Lua file and the PDDL files the diagnostics point into (a declaration's span), so the
+    CLI shows the predicate's line and column, not only the domain's path."""
+    from tmpc.lang.source import SourceFile
+    files = dict(module.files)
+    for d in diags:
+        for span in (d.span, *(r.span for r in d.related)):
+            if span is not None and span.path not in files:
+                try:
+                    files[span.path] = SourceFile.read(span.path)
+                except (OSError, UnicodeDecodeError):
+                    pass
+    return files
 
 def _trace_one(module: LuaModule, name: str, nargs: int, decl, result: TraceResult) -> None:
     diags = result.diagnostics

@@ -249,6 +249,23 @@ def test_missing_function_and_arity(tmp_path):
     assert codes == ["E707", "E708"] and not res.traced          # `held` is skipped
 
 
+def test_missing_function_error_shows_the_pddl_line(tmp_path):
+    """A strict trace error carries the domain file too, so E707 renders `domain.pddl:L:C` with
+    the declaration's line, not only the domain's path."""
+    lua = tmp_path / "p.lua"
+    lua.write_text("function on(x, y)\n  return Le(x.pz, y.pz)\nend\n")
+    dom = tmp_path / "domain.pddl"
+    dom.write_text("(define (domain d) (:requirements :strips)\n (:predicates (on ?x ?y)\n"
+                   "  (at ?m ?x) (held ?x :discrete)))\n")
+    domain = parse_source(SourceFile.read(dom)).definitions[0]
+    with pytest.raises(LuaError) as info:
+        trace_module(load_lua_predicates(lua, "planet"), {p.name.text: p for p in
+                                                         domain.predicates})
+    assert str(dom) in info.value.files
+    text = render(info.value.diagnostics[0], info.value.files)
+    assert f"{dom}:3:3: error[E707]" in text and "(at ?m ?x)" in text
+
+
 # ------------------------------------------------------------------------------------------------
 # tracing
 
