@@ -27,6 +27,8 @@ class Workspace:
 
     files: dict[str, SourceFile] = field(default_factory=dict)
     parsed: dict[str, ParsedFile] = field(default_factory=dict)
+    #: run configurations read (their domain, problem and Lua file are checked too)
+    configs: list = field(default_factory=list)
 
     def load(self, path: str | Path) -> ParsedFile:
         key = str(path)
@@ -217,10 +219,14 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             load_urdf(path.resolve())
         elif is_run_config(path):
             from .configs import load_config
-            from .scenes import LoadReport
+            from .scenes import LoadReport, load_scene
             report = LoadReport()
-            load_config(path, report=report)
+            config = load_config(path, report=report)
+            # the scene, Lua file, domain and problem it names are checked as a run reads them
+            load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
+                       strict_meshes=False)
             ws.files.update(report.files)
+            ws.configs.append(config)
             return list(report.warnings)
         else:
             from .scenes import LoadReport, load_scene
@@ -243,12 +249,56 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckRe
         if Path(p).suffix.lower() in WORLD_SUFFIXES:
             if not Path(p).is_file():
                 raise InputError(error("E010", f"no such file: {p}", None))
+            before = len(ws.configs)
             world_diags += _check_world_file(Path(p), ws)
+            for config in ws.configs[before:]:
+                pddl += [config.domain, config.problem]
         else:
             pddl.append(p)
-    report = check_parsed(ws, [ws.load(p) for p in pddl])
+    report = check_parsed(ws, [ws.load(p) for p in dict.fromkeys(pddl)])
     report.diagnostics[:0] = world_diags
+    if ws.configs and report.ok:
+        report.diagnostics += _check_semantics(ws, report.programs)
     return report
+
+
+def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
+    """Every geometric predicate without inline semantics needs a function in the Lua file the
+    run configuration names (E707), as the compiler will look it up."""
+    from .diagnostics import TmpcError
+    out: list[Diagnostic] = []
+    for config in ws.configs:
+        prog = next((p for p in programs if p.problem is not None and p.problem.span is not None
+                     and Path(p.problem.span.path).resolve() == Path(config.problem).resolve()),
+                    None)
+        if prog is None:
+            continue
+        external = [d for d in prog.domain.predicates if d.external]
+        if not external:
+            continue
+        if config.semantics is None:
+            for d in external:
+                out.append(error("E707", f"geometric predicate `{d.name.text}` has no inline "
+                                 f"semantics and {config.path} names no Lua file", d.span,
+                                 "add `semantics = \"predicates.lua\"` to the configuration"))
+            continue
+        from .lua import load_lua_predicates
+        try:
+            module = load_lua_predicates(config.semantics)
+        except TmpcError as exc:
+            ws.files.update(exc.files)
+            out.extend(exc.diagnostics)
+            continue
+        ws.files.update(module.files)
+        for d in external:
+            if module.lookup(d.name.text) is None:
+                related = [Related(module.line_span(1), "the Lua file")] \
+                    if module.line_span(1) else []
+                out.append(error("E707", f"no Lua function for geometric predicate "
+                                 f"`{d.name.text}` in {module.path}", d.span,
+                                 "the file defines: " + (", ".join(module.names) or "none"),
+                                 related))
+    return out
 
 
 def check_parsed(ws: Workspace, parsed: list[ParsedFile]) -> CheckReport:

@@ -225,9 +225,11 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "TOML, tmit-star spec JSON) or a compiled artifact (.tmpa)")
         p.add_argument("--planner", default="unified", help="planner (default: unified)")
         p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-        p.add_argument("--time-limit", type=float, default=120.0, metavar="S",
-                       help="stop after S seconds and report the best progress (exit 3)")
-        p.add_argument("-o", "--output", metavar="PLAN.json", help="write the plan JSON here")
+        p.add_argument("--time-limit", type=float, default=None, metavar="S",
+                       help="stop after S seconds and report the best progress (exit 3); "
+                       "default: the configuration's, else 120")
+        p.add_argument("-o", "--output", metavar="PLAN.json", help="write the plan JSON here "
+                       "(default: the configuration's output, if any)")
         p.add_argument("--html", metavar="PLAN.html", help="write the animated viewer here")
         p.add_argument("--png", metavar="PLAN.png", help="write a snapshot here")
         p.add_argument("--legacy-output", choices=("planet", "tmit-star"),

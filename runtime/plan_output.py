@@ -60,8 +60,10 @@ def legacy_states(doc: dict, flavour: str) -> list[dict]:
     out = []
     for s in doc["states"]:
         a = s.get("action")
-        if a is not None and flavour == "planet":
-            a = a.strip("()").split()
+        if a is not None:
+            name, *args = a.strip("()").split()
+            # planet: [name, args...]; tmit-star: "name(arg, arg)" (FACTS: its plan printer)
+            a = [name, *args] if flavour == "planet" else f"{name}({', '.join(args)})"
         out.append({"joints": s["joints"], "base_pose": s["base_pose"],
                     "object_poses": s["object_poses"], "action": a})
     return out

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 EXIT_OK, EXIT_NOT_FOUND = 0, 3
+DEFAULT_TIME_LIMIT = 120.0
 
 #: planners by name: (factory(problem, seed, args) -> object with .solve(time_limit, progress),
 #: one-line description)
@@ -43,11 +44,12 @@ def make_planner(name: str, problem, seed: int, args):
 
 def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit: float = 120.0,
                  args=None, progress=None):
-    """Load, check and plan; returns (problem, result, setup seconds)."""
+    """Load (``input_path``: a path or a loaded :class:`World`), check and plan; returns
+    (problem, result, setup seconds)."""
     from .tmp_problem import TmpProblem
-    from .world import load_world
+    from .world import World, load_world
     t0 = time.perf_counter()
-    world = load_world(input_path)
+    world = input_path if isinstance(input_path, World) else load_world(input_path)
     problem = TmpProblem(world)
     problem.check_goal_reachable()
     problem.check_start()
@@ -60,19 +62,28 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
 
 def run_run(args) -> int:
     from .plan_output import legacy_states, plan_document, write_json_atomic
-    if args.time_limit <= 0:
-        sys.stderr.write("tmpc run: --time-limit must be > 0\n")
+    from .world import load_world
+    world = load_world(args.input)
+    # the command line wins; else the configuration's time limit and output (planet's TOML
+    # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
+    config = world.config
+    time_limit = args.time_limit if args.time_limit is not None else \
+        (config.time_limit if config is not None and config.time_limit else DEFAULT_TIME_LIMIT)
+    output = args.output or (str(config.output) if config is not None and config.output
+                             else None)
+    if not time_limit > 0:
+        sys.stderr.write("tmpc run: the time limit must be > 0\n")
         return 2
-    progress = None if args.quiet or not sys.stderr.isatty() else _Progress(args.time_limit)
-    problem, result, setup = plan_problem(args.input, args.planner, args.seed, args.time_limit,
-                                          args, progress)
+    progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
+    problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit, args,
+                                          progress)
     if progress is not None:
         progress.done()
     doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
                         input_path=args.input, setup_seconds=setup)
-    if args.output:
+    if output:
         data = legacy_states(doc, args.legacy_output) if args.legacy_output else doc
-        write_json_atomic(args.output, data)
+        write_json_atomic(output, data)
     if args.html or args.png:
         from .viewer import write_html, write_png
         if args.html:

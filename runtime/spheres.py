@@ -91,7 +91,8 @@ def _mesh_cover(V: np.ndarray, F: np.ndarray, k: int, iters: int = 10):
         lo, hi = np.full((k, 3), np.inf), np.full((k, 3), -np.inf)
         np.minimum.at(lo, np.repeat(lab, 3), flat)
         np.maximum.at(hi, np.repeat(lab, 3), flat)
-        C = np.where(np.isfinite(lo), (lo + hi) / 2, C)
+        with np.errstate(invalid="ignore"):      # empty clusters (inf + -inf) keep their centre
+            C = np.where(np.isfinite(lo), (lo + hi) / 2, C)
     cost = ((tri[:, None] - C[None, :, None]) ** 2).sum(-1).max(-1)
     lab = cost.argmin(1)
     r2 = np.full(k, -1.0)

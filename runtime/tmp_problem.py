@@ -102,8 +102,11 @@ class TmpProblem:
         if missing:
             prob = self.world.program.problem
             raise InputError(error(
-                "E822", f"object{'s' if len(missing) > 1 else ''} {', '.join(missing)} of the "
-                "problem appear in geometric atoms but are neither scene objects nor robot frames",
+                "E822", (f"objects {', '.join(missing)} of the problem appear in geometric "
+                         "atoms but are neither scene objects nor robot frames"
+                         if len(missing) > 1 else
+                         f"object {missing[0]} of the problem appears in geometric atoms but is "
+                         "neither a scene object nor a robot frame"),
                 prob.span, "add them to the scene, or check the spelling against the scene file"),
                 self.world.files)
 
@@ -113,9 +116,9 @@ class TmpProblem:
         if not rep.valid:
             pairs = ", ".join(f"{a} with {b} ({d * 1000:.1f} mm)" for a, b, d in rep.pairs[:5])
             raise InputError(error("E823", f"the start state is in collision: {pairs}",
-                                   None, "move the robot or the objects in the scene, or raise "
-                                   "the penetration tolerance (the configuration's "
-                                   "`collision_tolerance`)"))
+                                   None, "move the robot or the objects in the scene, or "
+                                   "allow deeper contact: a native manifest's [planner] "
+                                   f"collision_tolerance (now {self.tolerance} m)"))
 
     def check_goal_reachable(self) -> None:
         if not self.ground.goal_relaxed_reachable:

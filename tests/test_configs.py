@@ -265,3 +265,27 @@ def test_native_manifest_sets_the_collision_tolerance(tmp_path):
     assert default_tolerance(load_world(run, with_program=False)) == 0.015
     run.write_text(run.read_text().replace("0.015", "-1"))
     check_error("E512", run, "-1")
+
+
+def test_check_of_a_run_config_checks_what_it_names(tmp_path):
+    """`tmpc check CONFIG` checks the domain and problem it names and that the Lua file defines
+    every geometric predicate without inline semantics (E707), as a run would."""
+    import shutil
+    import subprocess
+    import sys
+    root = Path(__file__).resolve().parents[1]
+    ex = tmp_path / "ps"
+    shutil.copytree(root / "examples" / "planet-sort", ex)
+    ok = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
+                        capture_output=True, text=True)
+    assert ok.returncode == 0 and "problem" in ok.stderr, ok.stderr
+    lua = ex / "sort.lua"
+    lua.write_text(lua.read_text().replace("function at(", "function at_renamed("))
+    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 1 and "E707" in bad.stderr and "domain.pddl:" in bad.stderr, bad.stderr
+    prob = ex / "problem.pddl"
+    prob.write_text(prob.read_text().replace("(:goal (and", "(:goal (and (no-such-pred a)"))
+    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 1 and "problem.pddl:" in bad.stderr, bad.stderr

@@ -179,3 +179,23 @@ def test_cli_run_writes_plan_and_legacy_arrays(tmp_path):
     assert acts == [a.strip("()").split() for a in doc["actions"]]
     r = _tmpc("validate", CLUTTER, out)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_configuration_time_limit_and_output(tmp_path):
+    """The configuration's time limit and output apply when the command line gives none (a
+    planet user expects the plan where the run TOML says)."""
+    ex = tmp_path / "clutter"
+    shutil.copytree(ROOT / "examples" / "clutter", ex)
+    cfg = ex / "clutter.toml"
+    cfg.write_text(cfg.read_text() + '\n[planner]\ntime_limit = 0.000001\noutput = "out.json"\n')
+    r = _tmpc("run", cfg, "-q")
+    assert r.returncode == 3, r.stderr
+    doc = json.loads((ex / "out.json").read_text())
+    assert doc["status"] == "partial" and doc["states"]
+    legacy = tmp_path / "tmit.json"
+    r = _tmpc("run", CLUTTER, "-q", "-o", legacy, "--legacy-output", "tmit-star")
+    assert r.returncode == 0, r.stderr
+    acts = [s["action"] for s in json.loads(legacy.read_text()) if s["action"]]
+    assert acts[0].startswith("pickup(blue_stick_1, ") and acts[0].endswith(")")
+    r = _tmpc("validate", CLUTTER, legacy)
+    assert r.returncode == 0, r.stdout + r.stderr
