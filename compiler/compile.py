@@ -61,8 +61,9 @@ class CompiledProgram:
             bad = self.external[decl.name.key]
             raise InputError(error("E586", f"Lua predicate `{name}` could not be traced "
                                    f"({bad.reason}); kernels cannot call its direct evaluation "
-                                   "yet", decl.span, "avoid comparisons and branches on object "
-                                   "fields inside the function (see docs/lua.md)"))
+                                   "yet", bad.span or decl.span, "avoid comparisons and "
+                                   "branches on object fields inside the function (see "
+                                   "docs/lua.md)"), bad.files)
         elif decl.name.key in self.external:
             body = self.external[decl.name.key]
         else:
@@ -181,7 +182,10 @@ def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir
     result = trace_module(load_lua_predicates(semantics), decls)
     out = {name.lower(): node for name, node in result.traced.items()}
     for name, fb in result.fallbacks.items():
-        out.setdefault(name.lower(), _Untraceable(name, getattr(fb, "reason", "")))
+        fn = fb.module.functions.get(fb.function)
+        out.setdefault(name.lower(), _Untraceable(
+            name, getattr(fb, "reason", ""),
+            fb.module.line_span(fn.line) if fn is not None else None, fb.module.files))
     return out
 
 
@@ -189,6 +193,9 @@ def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir
 class _Untraceable:
     name: str
     reason: str
+    #: the Lua function's line, and the files to render it
+    span: object = None
+    files: dict = field(default_factory=dict)
 
 
 def _conjuncts(f):

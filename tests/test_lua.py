@@ -468,3 +468,27 @@ def test_legacy_predicates_trace(lua, domains, capsys):
             print(f"  traced    {name} (not a PDDL predicate)")
         for d in others.diagnostics:
             print(f"  helper    {d.message}")
+
+
+def test_untraceable_lua_predicate_points_at_its_function(tmp_path):
+    """E586 names the Lua function's line (not just the domain file)."""
+    import shutil
+    from tmpc.compiler.compile import CompiledProgram, external_predicates
+    from tmpc.lang.diagnostics import TmpcError
+    from tmpc.runtime.world import load_world
+    ex = tmp_path / "ps"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "planet-sort", ex)
+    lua = ex / "sort.lua"
+    text = lua.read_text()
+    head = text.index("\n", text.index("function at(")) + 1
+    lua.write_text(text[:head] + "  if m.pz > 2.0 then return False() end\n" + text[head:])
+    world = load_world(ex / "sort.toml")
+    compiled = CompiledProgram(world.program, world.scene, world.model,
+                               external=external_predicates(world.config.semantics, world.program))
+    with pytest.raises(TmpcError) as exc:
+        compiled.predicate("at")
+    d = exc.value.diagnostics[0]
+    assert d.code == "E586" and d.span.path.endswith("sort.lua")
+    assert d.span.path in exc.value.files
+    new = lua.read_text()
+    assert new[d.span.start:].startswith("function at(")
