@@ -357,8 +357,10 @@ class Bench:
         rows = []
         for prec in self.problems:
             for planner in self.planners:
+                # a run cut short by Ctrl-C measured nothing: it is in the JSON and the log,
+                # not in the statistics
                 runs = [r for r in self.runs if r["problem"] == prec["name"]
-                        and r["planner"] == planner]
+                        and r["planner"] == planner and r["status"] != "interrupted"]
                 if runs:
                     rows.append(summarize(prec, planner, runs, self.args.time_limit))
         return rows

@@ -263,6 +263,8 @@ def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem, tmp_path, mo
     assert doc["status"] == "interrupted"
     assert [(r["seed"], r["status"]) for r in doc["runs"]] == [(0, "solved"), (1, "interrupted")]
     assert bench.exit_code() == 130
+    (row,) = doc["summary"]                      # the interrupted run is not a failure
+    assert (row["runs"], row["solved"]) == (1, 1)
     log = read_ompl_log(Path(args.ompl_log))
     runs = log["planners"]["unified"]["runs"]
     assert len(runs) == 2 and log["enums"]["status"][runs[1]["status"]] == "Abort"
