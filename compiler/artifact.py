@@ -81,7 +81,14 @@ def _pack_urdf(members: _Members, urdf: Path) -> str:
         name = members.blob(found.read_bytes(), found.suffix)
         return f'filename="{Path(name).name}"'   # the URDF is a blob too: same directory
 
-    return members.blob(_FILENAME.sub(repl, text).encode("utf-8"), ".urdf")
+    from tmpc.lang.robot import find_srdf
+    name = members.blob(_FILENAME.sub(repl, text).encode("utf-8"), ".urdf")
+    # the robot's SRDF (self-collision pairs to skip) travels beside it, where the collision
+    # checker looks for it (`<stem>.srdf`); without it, e.g. the PR2's finger tips collide
+    srdf = find_srdf(urdf)
+    if srdf is not None:
+        members.add(str(Path(name).with_suffix(".srdf")), srdf.read_bytes())
+    return name
 
 
 def _shape_json(members: _Members, shape) -> dict | None:

@@ -256,3 +256,13 @@ def _topological(links, joints, path) -> tuple[str, tuple[Joint, ...]]:
             raise SceneError(error("E561", f"{path}: joint `{j.name}` mimics unknown joint "
                                    f"`{j.mimic.joint}`", None))
     return roots[0], tuple(order)
+
+
+def find_srdf(urdf_path: str | Path) -> Path | None:
+    """The SRDF of a URDF: ``<stem>.srdf`` beside it or in ``../srdf/`` (example-robot-data)."""
+    p = Path(urdf_path)
+    for cand in (p.with_suffix(".srdf"), p.parent.parent / "srdf" / (p.stem + ".srdf"),
+                 p.parent / "srdf" / (p.stem + ".srdf")):
+        if cand.is_file():
+            return cand
+    return None

@@ -34,7 +34,7 @@ import numpy as np
 
 from tmpc.compiler.fk import RobotModel, pose_matrix
 from tmpc.lang.diagnostics import SceneError, error
-from tmpc.lang.robot import KinematicTree
+from tmpc.lang.robot import KinematicTree, find_srdf
 from tmpc.lang.scene import Scene, Shape
 
 #: numerical slack on penetration depth: a resting contact computed as 1e-12 deep is not a collision
@@ -223,16 +223,6 @@ def adjacent_pairs(tree: KinematicTree) -> set[frozenset[str]]:
     for members in by_group.values():
         out |= {frozenset((a, b)) for i, a in enumerate(members) for b in members[i + 1:]}
     return out
-
-
-def find_srdf(urdf_path: str | Path) -> Path | None:
-    """The SRDF of a URDF: ``<stem>.srdf`` beside it or in ``../srdf/`` (example-robot-data)."""
-    p = Path(urdf_path)
-    for cand in (p.with_suffix(".srdf"), p.parent.parent / "srdf" / (p.stem + ".srdf"),
-                 p.parent / "srdf" / (p.stem + ".srdf")):
-        if cand.is_file():
-            return cand
-    return None
 
 
 def srdf_disabled_pairs(path: Path) -> list[tuple[str, str]]:

@@ -41,6 +41,22 @@ def test_artifact_runs_without_its_sources(artifact):
     assert r.returncode == 0, r.stderr
 
 
+def test_artifact_carries_the_robots_srdf(artifact):
+    """Self-collision pairs the SRDF disables must stay disabled in a run from the artifact
+    (without it the PR2's finger tips collide in its start state)."""
+    import numpy as np
+    from tmpc.compiler.state import initial_state
+    from tmpc.runtime.world import load_world
+    with zipfile.ZipFile(artifact) as z:
+        assert any(n.endswith(".srdf") for n in z.namelist())
+    world = load_world(artifact)
+    source = load_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    a, b = world.collision(), source.collision()
+    assert np.array_equal(a.allowed, b.allowed)
+    s0 = initial_state(world.scene, world.model)
+    assert a.check(s0.q, poses=s0.poses, attached=s0.held).valid
+
+
 def test_manifest_and_members(artifact):
     with zipfile.ZipFile(artifact) as z:
         manifest = json.loads(z.read("manifest.json"))
