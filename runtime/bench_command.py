@@ -166,8 +166,8 @@ class Bench:
                     run = self.run(problem, rec, planner, seed)
                     self.runs.append(run)
                     self.save()
-                    if run["status"] == "interrupted":
-                        raise _Stop
+                    if run["status"] == "interrupted" or run.get("interrupted"):
+                        raise _Stop     # Ctrl-C, even one that landed as the goal was found
         finally:
             rec["seconds"] = round(time.perf_counter() - t0, 4)
             rec["load_after"] = list(os.getloadavg())
@@ -216,6 +216,7 @@ class Bench:
         from .plan_output import action_text
         rec.update(
             status=result.status, solved=result.status == "solved",
+            interrupted=bool(s.get("interrupted")),
             solve_seconds=round(wall, 4), search_seconds=s.get("seconds"),
             shortcut_seconds=s.get("shortcut_seconds"),
             actions=[action_text(a) for _, _, a in result.path if a is not None],

@@ -641,9 +641,11 @@ class CollisionWorld:
         return out
 
     def check_motion(self, q0, q1, resolution: float = 0.02, poses=None,
-                     attached=None) -> MotionReport:
+                     attached=None, details: bool = True) -> MotionReport:
         """Check the straight motion q0 -> q1 (wrapping coordinates the short way round) at
-        steps that move no coordinate more than ``resolution`` (rad or m); both ends included."""
+        steps that move no coordinate more than ``resolution`` (rad or m); both ends included.
+        ``details=False`` skips naming the colliding pairs (``report`` None): planners only need
+        where the motion stops being valid."""
         if not (resolution > 0 and math.isfinite(resolution)):
             raise SceneError(error("E575", f"motion resolution {resolution} must be a finite "
                                    "number > 0", None, "e.g. 0.02 (rad or m per step)"))
@@ -652,6 +654,8 @@ class CollisionWorld:
         for start, bad in self._invalid_states(Q, place, allowed, first_state_only=True):
             if len(bad):
                 i = start + int(bad[0])
+                if not details:
+                    return MotionReport(False, i / (len(Q) - 1), None, len(Q) - 1)
                 fpos, local, R, p = self.frames(Q[i:i + 1], place)
                 hits = self._exact(_world(R[0], p[0], fpos, local), allowed, first_only=False)
                 return MotionReport(False, i / (len(Q) - 1), self._report(hits), len(Q) - 1)

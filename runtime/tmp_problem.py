@@ -279,7 +279,7 @@ class TmpProblem:
         the parameter of the last valid state before the first collision (0.0: none)."""
         t = time.perf_counter()
         rep = self.collision.check_motion(q0, q1, resolution, poses=mode.poses,
-                                          attached=mode.held)
+                                          attached=mode.held, details=False)
         self.timers.collision += time.perf_counter() - t
         if rep.valid:
             return 1.0

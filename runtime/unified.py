@@ -164,7 +164,8 @@ class UnifiedPlanner:
                 if progress is not None:
                     progress(self)
         except KeyboardInterrupt:
-            status = "interrupted" if self.goal_node is None else "solved"
+            status = "interrupted"
+            self.counts["interrupted"] = True     # callers stop a sweep even if it solved
         seconds = time.perf_counter() - start
         end = self.goal_node if self.goal_node is not None else self._best_node()
         path = self._path(end)
