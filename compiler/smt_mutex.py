@@ -64,6 +64,8 @@ def _h2(problem: GroundProblem, budget_s: float) -> tuple[int, list[int]]:
         if time.perf_counter() - t0 > budget_s:
             raise Budget
         for k, (pre, adds, dels) in enumerate(acts):
+            if not k & 1023 and time.perf_counter() - t0 > budget_s:
+                raise Budget
             if pre & ~reach:
                 continue
             q = reach & ~dels & ~adds

@@ -50,7 +50,8 @@ def run_plan(args) -> int:
     if not gp.goal_relaxed_reachable:
         raise NoPlanError(_unreachable(gp, prog), files)
     from tmpc.runtime.taskplan import SOLVED, TIMEOUT, UNREACHABLE, TaskPlanner, simulate
-    planner = TaskPlanner(gp)
+    left = args.time_limit - (time.perf_counter() - t0)
+    planner = TaskPlanner(gp, analysis_budget=min(1.0, max(left, 0.0) / 10))
     if args.verbose:
         _describe(planner)
     left = args.time_limit - (time.perf_counter() - t0)

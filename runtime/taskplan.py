@@ -33,6 +33,7 @@ Constraints naming steps beyond the encoded horizon wait until the horizon gets 
 from __future__ import annotations
 
 import re
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Iterable, Iterator
@@ -89,18 +90,20 @@ class TaskPlanner:
     default) or ``"assumptions"``. ``amo``: the at-most-one-action encoding (``"pb"``,
     ``"ladder"``). ``changers``: which actions may change a geometric literal (default: those with
     kinematic effects). ``lower_bound`` / ``mutexes``: use landmarks / h^2 mutexes (on by
-    default; off only to measure what they buy).
+    default; off only to measure what they buy); ``analysis_budget``: seconds each of the two
+    analyses may take (landmarks stop early with what they found, mutexes are dropped).
     """
 
     def __init__(self, problem: GroundProblem, geometric: bool = False, *,
                  goal_mode: str = "scope", amo: str = "pb",
                  changers: Changers | None = None, lower_bound: bool = True,
-                 mutexes: bool = True):
+                 mutexes: bool = True, analysis_budget: float = 1.0):
         import z3
         if goal_mode not in GOAL_MODES:
             raise ValueError(f"goal_mode must be one of {GOAL_MODES}")
         self.z3 = z3
         self.problem = problem
+        self.analysis_budget = analysis_budget
         self.goal_mode = goal_mode
         t0 = time.perf_counter()
         self.landmarks = self._landmarks() if lower_bound else None
@@ -129,11 +132,12 @@ class TaskPlanner:
     def _mutexes(self):
         from tmpc.compiler.smt import relevant_atoms
         from tmpc.compiler.smt_mutex import mutex_pairs
-        return mutex_pairs(self.problem, relevant_atoms(self.problem), budget_s=1.0)
+        return mutex_pairs(self.problem, relevant_atoms(self.problem),
+                           budget_s=self.analysis_budget)
 
     def _landmarks(self):
         from tmpc.compiler.smt_bound import lmcut
-        return lmcut(self.problem, budget_s=1.0)
+        return lmcut(self.problem, budget_s=self.analysis_budget)
 
     def _lower_bound(self) -> int | None:
         """The first horizon that may have a plan: the goal's relaxed level and the number of
@@ -144,9 +148,12 @@ class TaskPlanner:
         return max(level, self.landmarks.bound if self.landmarks else 0)
 
     # ---- encoding ---------------------------------------------------------------------------
-    def _extend_to(self, k: int) -> None:
+    def _extend_to(self, k: int, deadline: float | None = None) -> bool:
+        """Encode layers and steps up to ``k``; False if the deadline passed first."""
         enc = self.encoding
         while self.layers < k:
+            if deadline is not None and time.perf_counter() >= deadline:
+                return False
             t0 = time.perf_counter()
             n = self.layers + 1
             text = enc.layer_text(n)
@@ -164,6 +171,7 @@ class TaskPlanner:
             self.solver.from_string(text)
             self.layers = n
             self._sizes[n] = (clauses + len(ready), variables, time.perf_counter() - t0)
+        return True
 
     def _add(self, layer: int, clause: list[str], declare: str = "") -> None:
         """Assert ``clause`` now, or once ``layer`` is encoded. ``declare``: declarations of the
@@ -227,7 +235,8 @@ class TaskPlanner:
             if deadline is not None and time.perf_counter() >= deadline:
                 return result(TIMEOUT, k)
             had = self.layers
-            self._extend_to(k)
+            if not self._extend_to(k, deadline):
+                return result(TIMEOUT, k)
             new = [self._sizes[n] for n in range(had + 1, k + 1)]
             answer, solve_s = self._check(k, deadline)
             st = HorizonStats(k, sum(x[0] for x in new), sum(x[1] for x in new),
@@ -286,19 +295,30 @@ class TaskPlanner:
             self.solver.set("timeout", 4294967295)
             self._timeout_set = False
         t0 = time.perf_counter()
-        if self.goal_mode == "scope":
-            self.solver.push()
-            self.solver.from_string(text + "".join(f"(assert {lit})" for lit in lits) +
-                                    self.encoding.landmark_text(k))
-            r = self.solver.check()
-            model = self.solver.model() if r == z3.sat else None
-            self.solver.pop()
-        else:
-            if k not in self._assumed:
-                self._assumed.add(k)
-                self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
-            r = self.solver.check(*[_lit_expr(z3, lit) for lit in lits])
-            model = self.solver.model() if r == z3.sat else None
+        guard = None
+        if deadline is not None:
+            # Z3's timeout is not always honoured (preprocessing large formulas): interrupt the
+            # context from a timer thread too (ctypes releases the GIL during the check)
+            guard = threading.Timer(max(0.0, deadline - t0) + 0.05, self.solver.ctx.interrupt)
+            guard.daemon = True
+            guard.start()
+        try:
+            if self.goal_mode == "scope":
+                self.solver.push()
+                self.solver.from_string(text + "".join(f"(assert {lit})" for lit in lits) +
+                                        self.encoding.landmark_text(k))
+                r = self.solver.check()
+                model = self.solver.model() if r == z3.sat else None
+                self.solver.pop()
+            else:
+                if k not in self._assumed:
+                    self._assumed.add(k)
+                    self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
+                r = self.solver.check(*[_lit_expr(z3, lit) for lit in lits])
+                model = self.solver.model() if r == z3.sat else None
+        finally:
+            if guard is not None:
+                guard.cancel()
         self._model = model
         return str(r), time.perf_counter() - t0
 
