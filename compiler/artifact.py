@@ -9,7 +9,9 @@ A zip archive with
   with every URDF mesh reference rewritten to its blob, and a run manifest (``run.toml``) tying
   them together;
 * ``kernels/*.jaxexport`` — the lifted condition kernels serialized with ``jax.export``, batched
-  over a symbolic number of (configuration, arguments) pairs.
+  over a symbolic number of (configuration, arguments) pairs. A kernel that calls a Lua predicate
+  on the host (one tracing could not capture, docs/lua.md) cannot be serialized: its manifest
+  entry has no ``member`` and says why (``skipped``); it is rebuilt from ``src/`` when loaded.
 
 Loading never executes code from the file (no pickle; kernels are StableHLO run by JAX): it checks
 the manifest and every member's SHA-256, extracts the data files to a cache directory named by the
@@ -184,6 +186,7 @@ def _cached_export(compiled, formula, kind: str, sources: str) -> bytes:
 def build_artifact(world, out: str | Path) -> dict:
     """Compile ``world`` (a :class:`tmpc.runtime.world.World` with a program) into ``out``."""
     from .compile import CompiledProgram
+    from .jaxgen import has_lua_calls
     from tmpc.lang import ast as A
     members = _Members()
     cfg, prog = world.config, world.program
@@ -210,10 +213,16 @@ def build_artifact(world, out: str | Path) -> dict:
     entries = []
     sources = _sha(json.dumps({k: _sha(v) for k, v in sorted(members.files.items())}).encode())
     for kind, formula in kernels:
-        name = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
-                           _cached_export(compiled, formula, kind, sources))
-        entries.append({"kind": kind, "name": formula.name, "member": name,
-                        "params": [p.name.text for p in formula.params]})
+        entry = {"kind": kind, "name": formula.name,
+                 "params": [p.name.text for p in formula.params]}
+        if has_lua_calls(formula.body):
+            entry.update(member=None, skipped="calls a Lua predicate on the host (tracing could "
+                         "not capture it); jax.export cannot serialize host callbacks, so the "
+                         "kernel is rebuilt from src/ when loaded")
+        else:
+            entry["member"] = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
+                                          _cached_export(compiled, formula, kind, sources))
+        entries.append(entry)
     model = world.model
     manifest = {
         "format": FORMAT, "tmpc": _version("tmpc"), "jax": _version("jax"),
@@ -320,6 +329,8 @@ def exported_kernels(path: str | Path, manifest: dict) -> dict[tuple[str, str], 
     _, z = read_manifest(path)
     out = {}
     for k in manifest.get("kernels", []):
+        if not k.get("member"):
+            continue                # not serializable (calls Lua on the host): rebuild it
         exp = export.deserialize(bytearray(z.read(k["member"])))
         out[(k["kind"], k["name"].lower())] = exp.call
     return out

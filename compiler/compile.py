@@ -19,7 +19,7 @@ from tmpc.lang.scene import Scene
 
 from . import ir
 from .fk import RobotModel
-from .jaxgen import Options, condition_kernel, residual_kernel
+from .jaxgen import Options, condition_kernel, lua_host_call, residual_kernel
 from .lower import Lowerer
 from .tables import KernelWorld, build_world
 
@@ -58,12 +58,9 @@ class CompiledProgram:
         if decl.semantics is not None:
             body = Lowerer(self.program.scope).predicate(decl).body
         elif isinstance(self.external.get(decl.name.key), _Untraceable):
-            bad = self.external[decl.name.key]
-            raise InputError(error("E586", f"Lua predicate `{name}` could not be traced "
-                                   f"({bad.reason}); kernels cannot call its direct evaluation "
-                                   "yet", bad.span or decl.span, "avoid comparisons and "
-                                   "branches on object fields inside the function (see "
-                                   "docs/lua.md)"), bad.files)
+            # evaluated directly: a `lua` node calling the fallback on the host (docs/lua.md)
+            body = ir.op("lua", (ir.Const(decl.name.key, "lua"),
+                                 *(ir.Arg(i) for i in range(len(decl.params)))), ir.BOOL)
         elif decl.name.key in self.external:
             body = self.external[decl.name.key]
         else:
@@ -107,6 +104,13 @@ class CompiledProgram:
         return body if positive else ir.op("not", (body,), ir.BOOL)
 
     # ---- kernels -----------------------------------------------------------------------------
+    @cached_property
+    def lua_fallbacks(self) -> dict:
+        """Registry of the `lua` IR nodes: key (the predicate's lower-case name) -> the JAX host
+        call of its :class:`~tmpc.compiler.lua_trace.LuaFallback`."""
+        return {key: lua_host_call(u.fallback, self.world) for key, u in self.external.items()
+                if isinstance(u, _Untraceable)}
+
     def kernels(self, formula: Formula):
         """(condition kernel, residual kernel) of a formula, jitted once per formula."""
         key = (formula.name, formula.body)
@@ -115,8 +119,10 @@ class CompiledProgram:
             jax = configured()
             frames = self.frames_for(formula)
             self._kernels[key] = (
-                jax.jit(condition_kernel(formula.body, self.world, self.options, frames)),
-                residual_kernel(formula.body, self.world, self.options, frames))
+                jax.jit(condition_kernel(formula.body, self.world, self.options, frames,
+                                         self.lua_fallbacks)),
+                residual_kernel(formula.body, self.world, self.options, frames,
+                                self.lua_fallbacks))
         return self._kernels[key]
 
     def frames_for(self, formula: Formula) -> set[int]:
@@ -171,8 +177,8 @@ class CompiledProgram:
 def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir.Node]:
     """IR of the program's Lua-defined geometric predicates, traced from ``semantics``.
 
-    A predicate tracing cannot capture (data-dependent branches) is evaluated directly by the Lua
-    fallback; kernels cannot call it yet, so asking for its kernel is a clear error (E586).
+    A predicate tracing cannot capture (data-dependent branches) is evaluated directly by its Lua
+    fallback: its formula is a `lua` node, and kernels call the fallback on the host.
     """
     from tmpc.lang.lua import load_lua_predicates
     from .lua_trace import trace_module
@@ -185,7 +191,7 @@ def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir
         fn = fb.module.functions.get(fb.function)
         out.setdefault(name.lower(), _Untraceable(
             name, getattr(fb, "reason", ""),
-            fb.module.line_span(fn.line) if fn is not None else None, fb.module.files))
+            fb.module.line_span(fn.line) if fn is not None else None, fb.module.files, fb))
     return out
 
 
@@ -196,6 +202,8 @@ class _Untraceable:
     #: the Lua function's line, and the files to render it
     span: object = None
     files: dict = field(default_factory=dict)
+    #: the :class:`~tmpc.compiler.lua_trace.LuaFallback` evaluating it
+    fallback: object = None
 
 
 def _conjuncts(f):

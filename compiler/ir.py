@@ -150,6 +150,11 @@ OPS = {
     "and": "", "or": "", "not": "", "implies": "",
     # a legacy distance function used as a condition: holds iff d <= tol, distance max(d, 0)
     "holds": "scalar distance -> bool",
+    # a legacy Lua predicate tracing could not capture, evaluated directly on the host:
+    # (Const(key), entity...) -> bool; ``key`` names its LuaFallback in the kernel's registry
+    # (CompiledProgram.lua_fallbacks), so the IR stays hashable and printable. Holds iff the
+    # fallback's distance <= tol; the distance is the fallback's.
+    "lua": "(Const(key), entity, ...) -> bool, a Lua function called on the host",
 }
 
 COMPARISONS = ("le", "lt", "ge", "gt", "eq")

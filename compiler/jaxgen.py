@@ -17,6 +17,7 @@ uses the double-``where`` idiom so gradients are finite everywhere, at zero dist
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,10 +50,13 @@ def _safe_sqrt(jnp, x):
 class _Emitter:
     """Evaluates IR for one state inside a traced JAX function."""
 
-    def __init__(self, world: KernelWorld, opts: Options, frames, q, obj_T, obj_parent, args):
+    def __init__(self, world: KernelWorld, opts: Options, frames, q, obj_T, obj_parent, args,
+                 lua=None):
         self.jax = configured()
         self.jnp = self.jax.numpy
         self.world, self.opts, self.q, self.args = world, opts, q, args
+        #: key -> host function of a `lua` node (see :func:`lua_host_call`)
+        self.lua = lua or {}
         self.cache: dict = {}
         self.R, self.p = self._pose_table(frames, obj_T, obj_parent)
 
@@ -135,6 +139,8 @@ class _Emitter:
             return self.val(a[0], env) == self.val(a[1], env)
         if o == "holds":
             return self.val(a[0], env) <= tol
+        if o == "lua":
+            return self.val(n, env) <= tol
         if o == "inside":
             p, (lo, hi) = self.val(a[0], env), self.val(a[1], env)
             return jnp.all(p >= lo - tol) & jnp.all(p <= hi + tol)
@@ -182,8 +188,8 @@ class _Emitter:
         if o == "same":
             same = self.val(a[0], env) == self.val(a[1], env)
             return jnp.where(same != neg, 0.0, BIG)
-        if o == "holds":
-            d = self.val(a[0], env)
+        if o in ("holds", "lua"):
+            d = self.val(a[0] if o == "holds" else n, env)
             return jnp.maximum(tol - d, 0.0) if neg else jnp.maximum(d, 0.0)
         if o == "inside":
             p, (lo, hi) = self.val(a[0], env), self.val(a[1], env)
@@ -365,7 +371,69 @@ _VALUE_OPS = {
     "lower": lambda em, n, e: _a(em, n, e)[0],
     "upper": lambda em, n, e: _a(em, n, e)[1],
     "center": lambda em, n, e: (_a(em, n, e)[0] + _a(em, n, e)[1]) / 2,
+    "lua": lambda em, n, e: _lua_distance(em, n, e),
 }
+
+
+def _lua_distance(em, n, env):
+    """The distance of a `lua` node: its arguments' world poses (k, 7) from the pose table, the
+    host function called through ``jax.pure_callback`` (see :func:`lua_host_call`)."""
+    jnp = em.jnp
+    key = n.args[0].value
+    call = em.lua.get(key)
+    if call is None:
+        raise KernelError(f"no Lua function registered for {ir.show(n)}")
+    ids = [em.val(a, env) for a in n.args[1:]]
+    poses = jnp.stack([jnp.concatenate([em.p[e], _R_to_quat(jnp, em.R[e])]) for e in ids])
+    return call(poses, jnp.stack([jnp.asarray(e, dtype=jnp.int64) for e in ids]))
+
+
+def lua_host_call(fallback, world: KernelWorld):
+    """A JAX function ``call(poses (k, 7), ids (k,)) -> distance`` evaluating a
+    :class:`~tmpc.compiler.lua_trace.LuaFallback` on the host.
+
+    ``jax.pure_callback`` (``vmap_method="broadcast_all"``: one host call per batch, looping over
+    its rows in Python) wrapped in ``jax.custom_jvp``: the callback returns the distance and its
+    gradient with respect to the poses (dual numbers in Lua), and the JVP is that gradient dotted
+    with the poses' tangent, so derivatives with respect to ``q`` compose with JAX's own through
+    the forward kinematics. Names and support boxes (own frame, NaN rows = none) are looked up
+    from the ids on the host. Kernels containing it cannot be serialized by ``jax.export``.
+    """
+    jax = configured()
+    jnp = jax.numpy
+    names, support = world.names, np.asarray(world.support_local)
+    lock = threading.Lock()            # one Lua state per module: not thread-safe
+
+    def host(poses, ids, gradient=True):
+        poses, ids = np.asarray(poses, dtype=np.float64), np.asarray(ids, dtype=np.int64)
+        batch = poses.shape[:-2]
+        k = poses.shape[-2]
+        P, I = poses.reshape(-1, k, 7), ids.reshape(-1, k)
+        d, g = np.empty(len(P)), np.empty((len(P), k, 7))
+        with lock:
+            for r in range(len(P)):
+                sup = [None if np.isnan(support[e]).any() else support[e] for e in I[r]]
+                d[r], g[r] = fallback(P[r], sup, [names[e] for e in I[r]], gradient=gradient)
+        return (d.reshape(batch), g.reshape(*batch, k, 7)) if gradient else d.reshape(batch)
+
+    def both(poses, ids):
+        shapes = (jax.ShapeDtypeStruct(poses.shape[:-2], jnp.float64),
+                  jax.ShapeDtypeStruct(poses.shape, jnp.float64))
+        return jax.pure_callback(host, shapes, poses, ids, vmap_method="broadcast_all")
+
+    @jax.custom_jvp
+    def call(poses, ids):           # undifferentiated: the distance alone (no dual numbers)
+        return jax.pure_callback(lambda p, i: host(p, i, False),
+                                 jax.ShapeDtypeStruct(poses.shape[:-2], jnp.float64), poses, ids,
+                                 vmap_method="broadcast_all")
+
+    @call.defjvp
+    def _jvp(primals, tangents):
+        poses, ids = primals
+        d, g = both(poses, ids)
+        return d, (g * tangents[0]).sum((-2, -1))
+
+    return call
 
 
 def _grow(em, n, env):
@@ -380,16 +448,24 @@ def _grow(em, n, env):
 
 
 def _needs_frames(node: ir.Node) -> bool:
-    return any(isinstance(n, (ir.Joint,)) or (isinstance(n, ir.Op) and n.op in ("pose", "base"))
+    return any(isinstance(n, (ir.Joint,)) or (isinstance(n, ir.Op) and n.op in
+                                              ("pose", "base", "lua"))
                for n in ir.walk(node))
 
 
+def has_lua_calls(node: ir.Node) -> bool:
+    """Whether a formula calls a Lua function on the host (then ``jax.export`` cannot
+    serialize its kernel)."""
+    return any(isinstance(n, ir.Op) and n.op == "lua" for n in ir.walk(node))
+
+
 def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
-                     frames=None):
+                     frames=None, lua=None):
     """``kernel(q, obj_T, obj_parent, args) -> (truth, distance)`` (not jitted).
 
     ``frames``: the robot frame ids this kernel may read (its possible arguments, the constants it
     names and the frames that may hold objects); forward kinematics is limited to their chains.
+    ``lua``: key -> :func:`lua_host_call` of the formula's `lua` nodes.
     """
     fk = make_fk(world.model, frames) if world.model is not None else None
     frames_needed = fk is not None and _needs_frames(node)
@@ -398,7 +474,7 @@ def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(
         frames = fk(q) if frames_needed else None
         if frames is None and world.model is not None:
             frames = _static_frames(world)
-        em = _Emitter(world, opts, frames, q, obj_T, obj_parent, args)
+        em = _Emitter(world, opts, frames, q, obj_T, obj_parent, args, lua)
         return em.truth(node, {}), em.dist(node, {})
 
     _check_buildable(node, world)
@@ -406,13 +482,14 @@ def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(
 
 
 def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
-                    frames=None):
+                    frames=None, lua=None):
     """``kernel(q, obj_T, obj_parent, args) -> r`` with ``|r| = D`` (l2), for Gauss-Newton."""
     fk = make_fk(world.model, frames) if world.model is not None else None
 
     def kernel(q, obj_T, obj_parent, args):
         frames = fk(q) if fk is not None else None
-        return _Emitter(world, opts, frames, q, obj_T, obj_parent, args).residuals(node, {})
+        return _Emitter(world, opts, frames, q, obj_T, obj_parent, args,
+                        lua).residuals(node, {})
 
     _check_buildable(node, world)
     return kernel
