@@ -255,11 +255,12 @@ def _blocks(n: int = 3):
                                 EXAMPLES / "blocksworld" / "p01.pddl"]))
 
 
-def test_plans_enumerates_every_shortest_plan_once():
+@pytest.mark.parametrize("goal_mode", ["scope", "assumptions"])
+def test_plans_enumerates_every_shortest_plan_once(goal_mode):
     gp = _blocks()
     optimum = bfs_length(gp)
     seen = []
-    for plan in TaskPlanner(gp).plans(max_steps=optimum):
+    for plan in TaskPlanner(gp, goal_mode=goal_mode).plans(max_steps=optimum):
         assert simulate(gp, plan)[0]
         seen.append(tuple(a.id for a in plan))
     assert len(seen) == len(set(seen)) == shortest_plan_count(gp, optimum)
@@ -350,6 +351,20 @@ def test_blockers_evidence_after_a_prefix_and_true_evidence_lets_plans_through()
     fresh.add_evidence([pick], above, False)
     assert fresh.plan(max_steps=6).horizon == 3
     assert not fresh.add_evidence([], GeoLiteral("above", ("m", "t1"), False), True)  # unused
+
+
+def test_changers_say_which_actions_may_change_a_literal():
+    gp = _arm("(on x t2)", "x y")
+    # nothing changes (at m x): the refutation outlives moving y, so x can never be picked
+    planner = TaskPlanner(gp, geometric=True, changers=lambda lit: ())
+    planner.add_evidence([], GeoLiteral("at", ("m", "x"), True), False)
+    assert planner.plan(max_steps=6).status == EXHAUSTED
+    # only `switch` changes it: after switching, x may be picked again
+    switch = gp.find_action("switch").id
+    planner = TaskPlanner(gp, geometric=True, changers=lambda lit: [switch])
+    planner.add_evidence([], GeoLiteral("at", ("m", "x"), True), False)
+    r = planner.plan(max_steps=6)
+    assert r.horizon == 3 and r.actions[0].schema == "switch"
 
 
 def test_geometric_view_off_ignores_geometry_and_rejects_evidence():
@@ -448,6 +463,14 @@ def test_static_checks_find_dead_actions_and_unreachable_goals():
     assert codes == ["W610", "W611", "W612"], got
     assert "`bad`" in got[0][1] and "`dead`" in got[1][1] and "(never" in got[1][1]
     assert "(r)" in got[2][1]
+
+
+def test_static_checks_report_unknown_past_the_budget():
+    from tmpc.compiler.smt_checks import static_checks
+    prog = load_checked([EXAMPLES / "blocksworld" / "domain.pddl",
+                         EXAMPLES / "blocksworld" / "p01.pddl"])
+    (d,) = static_checks(prog, budget_s=0.0)
+    assert d.code == "W613" and d.severity.value == "note" and "unknown" in d.message
 
 
 def test_static_checks_quiet_on_the_examples():
