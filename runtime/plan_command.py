@@ -65,12 +65,14 @@ def run_plan(args) -> int:
     ok, why = simulate(gp, result.actions)
     if not ok:
         raise RuntimeError(f"the plan found does not replay ({why})")
-    text = plan_text(result.actions, gp.uses_costs)
+    shortest = result.impossible_below >= result.horizon
+    text = plan_text(result.actions, gp.uses_costs, shortest)
     if args.output:
         write_atomically(args.output, text)
     else:
         sys.stdout.write(text)
-    sys.stderr.write(f"plan of length {len(result.actions)} (shortest possible) in "
+    what = "shortest possible" if shortest else f"shortest with at least {args.min_steps} steps"
+    sys.stderr.write(f"plan of length {len(result.actions)} ({what}) in "
                      f"{time.perf_counter() - t0:.2f} s"
                      + (f", written to {args.output}" if args.output else "") + "\n")
     return 0
@@ -137,14 +139,15 @@ def _no_plan(result, args, timeout: bool):
     return error("E612", msg, None, "raise --max-steps to search longer plans")
 
 
-def plan_text(actions, uses_costs: bool) -> str:
+def plan_text(actions, uses_costs: bool, shortest: bool = True) -> str:
     """The IPC plan format: one ``(action arg ...)`` per line, lowercase, then the cost."""
     lines = [a.name.lower() for a in actions]
     n = len(actions)
     if uses_costs:
         cost = sum(a.cost for a in actions)
         lines.append(f"; cost = {cost:g} (general cost)")
-        lines.append(f"; length {n} (shortest possible; action costs are not minimized)")
+        lines.append(f"; length {n} ({'shortest possible; ' if shortest else ''}action costs "
+                     "are not minimized)")
     else:
         lines.append(f"; cost = {n} (unit cost)")
         lines.append(f"; length {n}")

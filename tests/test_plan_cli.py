@@ -51,6 +51,12 @@ def test_plan_to_stdout_replays(capsys):
     assert "plan of length 6 (shortest possible)" in err
 
 
+def test_min_steps_past_the_optimum_is_not_called_shortest(capsys):
+    assert main(["plan", *BLOCKS, "--min-steps", "8"]) == 0
+    out, err = capsys.readouterr()
+    assert replay(BLOCKS, out) == 8 and "shortest with at least 8 steps" in err
+
+
 def test_output_file_is_written_atomically_with_normal_permissions(tmp_path, capsys):
     target = tmp_path / "out.plan"
     target.write_text("old")
