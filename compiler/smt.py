@@ -354,9 +354,12 @@ def encode(problem: GroundProblem, geometric: bool = False, amo: str = "pb",
     geo = _used_geo_literals(problem) if geometric else ()
     geo_index = {g: m for m, g in enumerate(geo)} if geometric else None
     layer = _layer_template(problem, relevant, geo, geo_index)
-    for p, q in mutexes:
-        if p in relevant and q in relevant:
-            layer.clause([f"(not p{p}@K)", f"(not p{q}@K)"])
+    from .smt_mutex import mutex_groups
+    for group in mutex_groups([(p, q) for p, q in mutexes if p in relevant and q in relevant]):
+        if len(group) == 2:
+            layer.clause([f"(not p{group[0]}@K)", f"(not p{group[1]}@K)"])
+        else:
+            layer.raw(f"(assert ((_ at-most 1) {' '.join(f'p{i}@K' for i in group)}))")
     init = _Text("i", "@0")
     for i in sorted(relevant):
         if problem.atoms[i].kind != "derived":

@@ -43,6 +43,31 @@ def mutex_pairs(problem: GroundProblem, atoms: set[int] | frozenset[int],
     return out
 
 
+def mutex_groups(pairs: list[tuple[int, int]]) -> list[list[int]]:
+    """A greedy clique cover of the mutex graph: groups of pairwise mutex atoms such that every
+    pair is in some group. A group of ``n`` atoms is one at-most-one constraint instead of
+    ``n(n-1)/2`` binary clauses (petri-net-alignment p01: 39,743 pairs per layer)."""
+    adj: dict[int, set[int]] = {}
+    for p, q in pairs:
+        adj.setdefault(p, set()).add(q)
+        adj.setdefault(q, set()).add(p)
+    left = {v: set(ns) for v, ns in adj.items()}        # edges not yet covered
+    groups = []
+    for v in sorted(adj, key=lambda v: -len(adj[v])):
+        while left[v]:
+            clique = [v]
+            # grow through uncovered edges first, then any mutex neighbour of all members
+            for w in sorted(left[v], key=lambda w: -len(left[w])) + sorted(adj[v] - left[v]):
+                if w not in clique and all(w in adj[u] for u in clique):
+                    clique.append(w)
+            for i, a in enumerate(clique):
+                for b in clique[i + 1:]:
+                    left[a].discard(b)
+                    left[b].discard(a)
+            groups.append(sorted(clique))
+    return groups
+
+
 def _h2(problem: GroundProblem, budget_s: float) -> tuple[int, list[int]]:
     t0 = time.perf_counter()
     n = len(problem.atoms)
@@ -94,4 +119,4 @@ def _h2(problem: GroundProblem, budget_s: float) -> tuple[int, list[int]]:
     return reach, pairs
 
 
-__all__ = ["mutex_pairs"]
+__all__ = ["mutex_pairs", "mutex_groups"]
