@@ -14,7 +14,7 @@ from tmpc.compiler.ground import ground
 from tmpc.compiler.ground_formula import GeoLiteral
 from tmpc.compiler.smt import encode, smtlib_templates
 from tmpc.compiler.smt_bound import lmcut
-from tmpc.compiler.smt_mutex import mutex_pairs
+from tmpc.compiler.smt_mutex import mutex_groups, mutex_pairs
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile
 from tmpc.runtime.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
@@ -416,6 +416,10 @@ def test_landmarks_bound_and_mutexes_are_sound():
         sets = lm.sets
         assert all(not (a & b) for i, a in enumerate(sets) for b in sets[i + 1:])
         pairs = mutex_pairs(gp, set(range(len(gp.atoms))))
+        groups = mutex_groups(pairs or [])
+        mutex = set(pairs or [])
+        assert all((a, b) in mutex for g in groups for i, a in enumerate(g) for b in g[i + 1:])
+        assert mutex == {(a, b) for g in groups for i, a in enumerate(g) for b in g[i + 1:]}
         if pairs:
             masks = [(1 << p) | (1 << q) for p, q in pairs]
             seen, queue = {gp.init}, deque([gp.init])
