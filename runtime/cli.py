@@ -44,6 +44,12 @@ def _summary(diags) -> str:
 def cmd_check(args) -> int:
     from tmpc.lang.program import check_paths
     report = check_paths(args.files)
+    if args.static and report.ok:
+        # SAT/relaxation checks (W610-W613): opt-in, because they ground the problem and load
+        # Z3, and plain `tmpc check` stays light enough for an editor on every keystroke
+        from tmpc.compiler.smt_checks import static_checks
+        for prog in report.programs:
+            report.diagnostics.extend(static_checks(prog, args.budget))
     _print_diagnostics(report.diagnostics, report.workspace.files, args.format)
     if args.format != "json":
         summary = _summary(report.diagnostics)
@@ -176,6 +182,11 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                    help="show tracebacks of internal errors")
     if name == "check":
         p.add_argument("files", nargs="+", metavar="FILE", help="domain/problem/module files")
+        p.add_argument("--static", action="store_true",
+                       help="also run the SAT and relaxation checks: actions that can never "
+                       "apply, goals that can never hold (W610-W613; grounds the problem)")
+        p.add_argument("--budget", type=float, default=2.0, metavar="S",
+                       help="time budget of --static per program (default 2 s)")
     elif name == "eval":
         p.add_argument("input", metavar="INPUT",
                        help="a scene (JSON/XML) or run configuration (TOML, tmit-star spec JSON)")

@@ -83,3 +83,20 @@ def test_problem_alone_finds_its_domain_beside_it():
     r = run("check", CLUTTER[1])
     assert r.returncode == 0, r.stderr
     assert "W011" in r.stderr
+
+
+def test_check_static_reports_dead_actions_and_unreachable_goals(tmp_path):
+    """`tmpc check --static` adds the SAT/relaxation warnings; plain `check` stays light."""
+    dom = tmp_path / "d.pddl"
+    dom.write_text("(define (domain d) (:requirements :strips :negative-preconditions)\n"
+                   "  (:predicates (p) (q) (r))\n"
+                   "  (:action a :parameters () :precondition (and (p) (not (p))) :effect (q))\n"
+                   "  (:action b :parameters () :precondition (p) :effect (q)))\n")
+    prob = tmp_path / "p.pddl"
+    prob.write_text("(define (problem pr) (:domain d) (:init (p)) (:goal (and (q) (r))))\n")
+    r = run("check", str(dom), str(prob), "--static")
+    assert r.returncode == 0, r.stderr
+    assert "d.pddl:3:12: warning[W610]" in r.stderr and "action `a`" in r.stderr
+    assert "warning[W612]" in r.stderr and "(r)" in r.stderr
+    plain = run("check", str(dom), str(prob))
+    assert plain.returncode == 0 and "W61" not in plain.stderr
