@@ -223,6 +223,7 @@ def build_artifact(world, out: str | Path) -> dict:
             entry["member"] = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
                                           _cached_export(compiled, formula, kind, sources))
         entries.append(entry)
+    smt = _smt_section(members, prog)
     model = world.model
     manifest = {
         "format": FORMAT, "tmpc": _version("tmpc"), "jax": _version("jax"),
@@ -233,6 +234,7 @@ def build_artifact(world, out: str | Path) -> dict:
                    "upper": [float(v) for v in model.upper] if model else [],
                    "entities": list(compiled.world.names)},
         "kernels": entries,
+        "smt": smt,
         "members": {name: _sha(data) for name, data in sorted(members.files.items())},
     }
     buf = io.BytesIO()
@@ -242,6 +244,20 @@ def build_artifact(world, out: str | Path) -> dict:
             z.writestr(name, data)
     atomic_write_bytes(out, buf.getvalue())
     return manifest
+
+
+def _smt_section(members: _Members, prog) -> dict:
+    """The task planner's step encoding as SMT-LIB2 templates (compiler/smt.py, geometric mode:
+    blocker variables included), one member per template; a problem too large to ground says why
+    instead of failing the artifact."""
+    from .ground import GroundingError, ground
+    from .smt import smtlib_templates
+    try:
+        templates = smtlib_templates(ground(prog), geometric=True)
+    except GroundingError as exc:
+        return {"templates": None, "skipped": exc.diagnostics[0].message}
+    return {"templates": {name: members.add(f"smt/{name}.smt2", text.encode("utf-8"))
+                          for name, text in sorted(templates.items())}}
 
 
 def _external(world) -> dict:

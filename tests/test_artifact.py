@@ -124,3 +124,27 @@ def test_failed_compile_leaves_no_file(tmp_path):
     r = cli("compile", str(d / "tabletop.toml"), "-o", str(out))
     assert r.returncode == 1 and "E200" in r.stderr
     assert not out.exists() and list(tmp_path.iterdir()) == [d]
+
+
+def test_artifact_carries_the_smt_templates(artifact):
+    """The task planner's step encoding travels in the artifact: from its text alone, the
+    tabletop task (two picks and two places) has a plan of length 4 and none of length 3."""
+    import z3
+    with zipfile.ZipFile(artifact) as z:
+        manifest = json.loads(z.read("manifest.json"))
+        t = {name: z.read(member).decode() for name, member in
+             manifest["smt"]["templates"].items()}
+    assert "readme" in t and "@K" in t["layer"]
+
+    def horizon(n: int) -> str:
+        text = "".join(t["layer"].replace("@K", f"@{k}") for k in range(n + 1)) + t["init"]
+        text += "".join(t["step"].replace("@P", f"@{k - 1}").replace("@K", f"@{k}")
+                        for k in range(1, n + 1))
+        goal = t["goal"] + "".join(f"(assert {lit})" for lit in t["goal-literals"].split("\n")
+                                   if lit)
+        return text + goal.replace("@K", f"@{n}")
+
+    for n, want in ((3, z3.unsat), (4, z3.sat)):
+        s = z3.SolverFor("QF_FD")
+        s.from_string(horizon(n))
+        assert s.check() == want
