@@ -50,6 +50,13 @@ def cmd_check(args) -> int:
         from tmpc.compiler.smt_checks import static_checks
         for prog in report.programs:
             report.diagnostics.extend(static_checks(prog, args.budget))
+        if report.workspace.configs:
+            # geometric conditions no configuration satisfies (W614), by projection
+            from tmpc.runtime.geo_checks import geometric_checks
+            from tmpc.runtime.world import load_world
+            for config in report.workspace.configs:
+                report.diagnostics.extend(geometric_checks(load_world(config.path),
+                                                           args.geometry_budget))
     _print_diagnostics(report.diagnostics, report.workspace.files, args.format)
     if args.format != "json":
         summary = _summary(report.diagnostics)
@@ -187,6 +194,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "apply, goals that can never hold (W610-W613; grounds the problem)")
         p.add_argument("--budget", type=float, default=2.0, metavar="S",
                        help="time budget of --static per program (default 2 s)")
+        p.add_argument("--geometry-budget", type=float, default=60.0, metavar="S",
+                       help="time budget of --static's geometric checks per run configuration, "
+                       "kernel compilation included (default 60 s)")
     elif name == "eval":
         p.add_argument("input", metavar="INPUT",
                        help="a scene (JSON/XML) or run configuration (TOML, tmit-star spec JSON)")

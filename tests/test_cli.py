@@ -100,3 +100,21 @@ def test_check_static_reports_dead_actions_and_unreachable_goals(tmp_path):
     assert "warning[W612]" in r.stderr and "(r)" in r.stderr
     plain = run("check", str(dom), str(prob))
     assert plain.returncode == 0 and "W61" not in plain.stderr
+
+
+def test_check_static_finds_geometry_nothing_can_satisfy(tmp_path):
+    """W614: with a run configuration, `check --static` projects each geometric condition within
+    the joint and base bounds; one asking for a stick 5 m up is reported at its declaration, the
+    bundled example is clean."""
+    import shutil
+    from pathlib import Path
+    ex = tmp_path / "clutter"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "clutter", ex)
+    dom = ex / "domain.pddl"
+    dom.write_text(dom.read_text().replace(
+        "(near ?m ?x 0.05)", "(and (near ?m ?x 0.05) (> (z (position ?x)) 5.0))"))
+    r = run("check", "--static", str(ex / "clutter.toml"))
+    assert r.returncode == 0, r.stderr
+    assert "warning[W614]: geometric predicate `at`" in r.stderr
+    assert "warning[W614]: the geometric precondition of action `pickup`" in r.stderr
+    assert "`putdown`" not in r.stderr and "`placed`" not in r.stderr
