@@ -57,7 +57,7 @@ class UnifiedOptions:
 
 @dataclass
 class UnifiedResult:
-    status: str                        # solved | partial
+    status: str                        # solved | partial | interrupted
     path: list[tuple[np.ndarray, Mode, object | None]]   # (q, mode, action executed there)
     stats: dict = field(default_factory=dict)
 
