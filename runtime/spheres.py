@@ -29,7 +29,8 @@ import numpy as np
 from tmpc.lang.scene import Shape
 
 if TYPE_CHECKING:
-    from .collision import CollisionWorld, MeshData, Placement
+    from .collision import CollisionWorld, Placement
+    from .collision_geometry import MeshData
 
 SLACK = 1e-9
 #: radius of padding balls (never overlap anything)

@@ -87,7 +87,7 @@ def q_with(model, **values):
 
 
 def test_pr2_default_configuration_is_free_and_allowed_pairs_come_from_srdf_and_tree(pr2):
-    from tmpc.runtime.collision import find_srdf, srdf_disabled_pairs
+    from tmpc.runtime.collision import find_srdf, srdf_disabled_pairs  # re-exported
     model, _ = pr2
     w = world(pr2)
     assert w.check(model.default_q).valid
@@ -261,7 +261,7 @@ def test_motion_finds_the_first_collision_and_takes_the_short_way_round(pr2):
 
 
 def test_covers_contain_their_geometry():
-    from tmpc.runtime.collision import load_mesh
+    from tmpc.runtime.collision_geometry import load_mesh
     from tmpc.runtime.spheres import ball, cover
     rng = np.random.default_rng(0)
     tree = load_urdf(ROBOTS["pr2"])
