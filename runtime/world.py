@@ -70,6 +70,13 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
     path = Path(path)
     if not path.exists():
         raise InputError(error("E010", f"no such file: {path}", None))
+    if path.suffix.lower() in (".pddl", ".tmpc"):
+        raise InputError(error(
+            "E827", f"{path} is a PDDL file; this command needs a run configuration (or a "
+            "scene) that names the domain, problem and scene", None,
+            "write a manifest like examples/clutter/clutter.toml ([problem] domain, problem, "
+            "scene), or give --domain/--problem/--scene to `tmpc compile`; for task planning "
+            "alone: `tmpc plan DOMAIN PROBLEM`"))
     if is_artifact(path):
         manifest, run = extract(path)      # checked; the world then comes from the extraction
         world = load_world(run, with_program)

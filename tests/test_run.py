@@ -199,3 +199,8 @@ def test_configuration_time_limit_and_output(tmp_path):
     assert acts[0].startswith("pickup(blue_stick_1, ") and acts[0].endswith(")")
     r = _tmpc("validate", CLUTTER, legacy)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_pddl_file_instead_of_a_configuration():
+    r = _tmpc("run", ROOT / "examples" / "blocksworld" / "domain.pddl")
+    assert r.returncode == 1 and "E827" in r.stderr and "tmpc plan" in r.stderr, r.stderr
