@@ -204,3 +204,25 @@ def test_configuration_time_limit_and_output(tmp_path):
 def test_pddl_file_instead_of_a_configuration():
     r = _tmpc("run", ROOT / "examples" / "blocksworld" / "domain.pddl")
     assert r.returncode == 1 and "E827" in r.stderr and "tmpc plan" in r.stderr, r.stderr
+
+
+def test_geometric_goal_is_projected_and_validated(tmp_path):
+    """A goal with a geometric literal: the planner projects onto it in the goal mode, and the
+    independent validator confirms it at the last state."""
+    ex = tmp_path / "tabletop"
+    shutil.copytree(ROOT / "examples" / "tabletop", ex)
+    prob = ex / "problem.pddl"
+    prob.write_text(prob.read_text().replace(
+        "(:goal (and (on red_cube tray) (on blue_cube tray))))",
+        "(:goal (and (on red_cube tray) (reach panda_hand_tcp blue_cube))))"))
+    out = tmp_path / "plan.json"
+    r = _tmpc("run", ex / "tabletop.toml", "--seed", "1", "-q", "-o", out)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out.read_text())
+    assert doc["actions"] == ["(pick panda_hand_tcp red_cube bench)",
+                              "(place panda_hand_tcp red_cube tray)"]
+    r = _tmpc("validate", ex / "tabletop.toml", out)
+    assert r.returncode == 0, r.stdout + r.stderr
+    # the robot moved on after the place: to the blue cube, which is not where it placed
+    place = next(i for i, st in enumerate(doc["states"]) if st["action"] and "place" in st["action"])
+    assert doc["states"][-1]["joints"] != doc["states"][place]["joints"]
