@@ -8,7 +8,7 @@ Four passes:
 2. **Count** each schema's bindings (:mod:`.ground_bind`; E600 past the limit).
 3. **Explore** (rounds until no new atom is reached): enumerate each schema's bindings whose
    top-level positive literals hold in the static facts plus the atoms reached so far (a join,
-   :func:`.ground_bind.bindings`), instantiate the new ones — static atoms, ``=`` and numeric
+   :class:`.ground_bind.Join`), instantiate the new ones — static atoms, ``=`` and numeric
    comparisons become constants as the formula is built; fluent atoms get provisional ids — and
    feed them to the delete-relaxed exploration (:mod:`.ground_reach`) as units: the action, each
    conditional effect (with the action's precondition), each axiom.
@@ -26,7 +26,7 @@ from tmpc.lang.checker import CheckedProgram
 
 from .ground import (ConditionalEffect, GroundAction, GroundAtom, GroundObject, GroundProblem,
                      GroundStats, KinematicEffect, grounding_error)
-from .ground_bind import FactIndex, anchors, bindings, checks, count, narrow
+from .ground_bind import FactIndex, Join, anchors, checks, count, count_joined, narrow
 from .ground_derived import Axiom, DerivedEvaluator, stratify
 from .ground_formula import (FALSE, TRUE, Condition, GAtom, GFormula, GGeo, GNot, atom_ids,
                              conj, disj, geo_atoms, relaxed_holds, remap)
@@ -43,7 +43,8 @@ _CMP = {"<": float.__lt__, "<=": float.__le__, "=": float.__eq__, ">=": float.__
 class _Schema:
     """An action or derived rule, lifted: precondition (rule body), flattened effects, cost
     effects; ``head`` is the derived predicate of a rule (None for actions). ``order`` ranks it;
-    the binding domains, tests and join anchors are filled in before exploring."""
+    the binding domains, tests and join anchors are filled in before exploring, the
+    :class:`~.ground_bind.Join` at its first round."""
 
     decl: A.Action | A.Derived
     pre: LFormula
@@ -55,6 +56,7 @@ class _Schema:
     tests: list = field(default_factory=list)
     joins: list = field(default_factory=list)
     seen: set = field(default_factory=set)
+    join: object = None
 
 
 @dataclass
@@ -77,6 +79,7 @@ class _Builder:
         self.prog, self.sc, self.limit = prog, prog.scope, limit
         self.objects = self._objects()
         self.otext = {o.key: o.name for o in self.objects}
+        self.obj_pos = {o.key: i for i, o in enumerate(self.objects)}
         self._by_type: dict[tuple[str, ...], list[str]] = {}
         self.lifter = Lifter(self.objects_of, limit)
         self.ptext = {k: d.name.text for k, d in self.sc.predicates.items()}
@@ -204,18 +207,23 @@ class _Builder:
                 f"action `{s.decl.name.text}`")
         doms = narrow([self.objects_of(type_keys(p)) for p in params], s.pre, self.index,
                       self.statics)
-        total = count(doms)
+        product = count(doms)
+        total, exact = (product, True) if product <= self.limit else \
+            count_joined(doms, s.pre, self.index, self.statics, self.limit)
         if total > self.limit:
             sizes = ", ".join(f"{p.name.text}: {len(d)} ({_type_text(p)})"
                               for p, d in zip(params, doms))
+            many = f"{total:,}" if exact else f"more than {self.limit:,}"
+            joined = "" if total == product else \
+                f" after joining its static preconditions ({product:,} before)"
             raise grounding_error(
-                "E600", f"{what} has {total:,} parameter bindings, over the grounding limit of "
-                f"{self.limit:,} (objects per parameter: {sizes})", s.decl.span,
+                "E600", f"{what} has {many} parameter bindings{joined}, over the grounding limit "
+                f"of {self.limit:,} (objects per parameter: {sizes})", s.decl.span,
                 "narrow the parameter types, add static preconditions (facts no action changes) "
                 "on the parameters, or raise the limit (max_bindings)")
         indexed = {k for k, v in self.kinds.items() if v != "geo"}
         s.doms = doms
-        s.tests = checks(s.pre, self.index, self.statics, indexed, len(params))
+        s.tests = checks(s.pre, self.index, self.statics, indexed)
         s.joins = anchors(s.pre, indexed)
 
     def explore(self, schemas: list[_Schema], init: list[int]):
@@ -236,9 +244,14 @@ class _Builder:
                 return cands, rules
 
     def ground_new(self, s: _Schema, cands: list, rules: list) -> None:
-        for b in bindings(s.doms, s.tests, s.joins, self.index):
-            if b in s.seen:
-                continue
+        # the join yields in its own order; new bindings are handled in parameter-by-parameter
+        # object order (every domain lists objects in declaration order)
+        if s.join is None:      # made once the initial state is in the index
+            s.join = Join(s.doms, s.tests, s.joins, self.index)
+        new = [b for b in s.join.run() if b not in s.seen]
+        pos = self.obj_pos
+        new.sort(key=lambda b: tuple(pos[o] for o in b))
+        for b in new:
             s.seen.add(b)
             self.considered += 1
             pre = self.inst(s.pre, b)

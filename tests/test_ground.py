@@ -383,3 +383,30 @@ def test_e605_domain_without_problem():
     with pytest.raises(GroundingError) as info:
         ground(report.programs[0])
     assert info.value.diagnostics[0].code == "E605"
+
+
+
+def test_e600_counts_the_join_over_binary_static_preconditions():
+    # 30 cells on a line: 30^3 = 27,000 typed bindings for `move`, but `(adj ?from ?to)` and
+    # `(adj ?to ?next)` leave 2 * 28 of them; the limit applies to the joined count
+    cells = " ".join(f"c{i}" for i in range(30))
+    adj = " ".join(f"(adj c{i} c{i + 1}) (adj c{i + 1} c{i})" for i in range(29))
+    text = f"""(define (domain line) (:requirements :typing :equality) (:types cell)
+      (:predicates (adj ?a ?b - cell) (at ?c - cell))
+      (:action move :parameters (?from ?to ?next - cell)
+        :precondition (and (at ?from) (adj ?from ?to) (adj ?to ?next) (not (= ?from ?next)))
+        :effect (and (at ?next) (not (at ?from)))))
+    (define (problem p) (:domain line) (:objects {cells} - cell)
+      (:init (at c0) {adj}) (:goal (at c28)))"""
+    gp = ground(_load(text), max_bindings=1000)
+    # two steps at a time from c0: the even cells; ids follow object order parameter by parameter
+    want = sorted([(i, i + 1, i + 2) for i in range(0, 27, 2)] +
+                  [(i, i - 1, i - 2) for i in range(2, 29, 2)])
+    assert [a.args for a in gp.actions] == [tuple(f"c{i}" for i in t) for t in want]
+    assert [a.id for a in gp.actions] == list(range(len(want)))
+    assert bfs(gp) is not None
+    # without `(adj ?to ?next)` the join leaves 58 adjacent pairs * 30 cells - 58 (?from = ?next)
+    err = _error(text.replace("(adj ?to ?next) ", ""), max_bindings=1000)
+    d = err.diagnostics[0]
+    assert d.code == "E600" and "`move` has more than 1,000 parameter bindings" in d.message
+    assert "after joining its static preconditions (27,000 before)" in d.message
