@@ -261,6 +261,7 @@ class Bench:
 
     def _keep_plan(self, doc: dict, rec: dict) -> str | None:
         """An invalid plan is evidence: keep it beside the results (else in a temp directory)."""
+        from tmpc.lang.diagnostics import TmpcError
         from .plan_output import write_json_atomic
         name = f"invalid-{rec['problem']}-{rec['planner']}-{rec['seed']}.plan.json"
         try:
@@ -269,7 +270,7 @@ class Bench:
             write_json_atomic(base / name, doc)
             rec["plan_file"] = str(base / name)
             return rec["plan_file"]
-        except OSError:
+        except (OSError, TmpcError):      # E828 from the write
             return None
 
     def _bug(self, rec: dict, prec: dict, what: str) -> None:

@@ -12,13 +12,11 @@ stderr.
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 from tmpc.lang.diagnostics import CheckError, InputError, TmpcError, error
+from tmpc.lang.fileio import atomic_write_text
 
 
 class NoPlanError(TmpcError):
@@ -155,26 +153,13 @@ def plan_text(actions, uses_costs: bool, shortest: bool = True) -> str:
 
 
 def write_atomically(path: str, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename, with
-    the permissions a plain write would give (mkstemp's are 0600)."""
-    target = Path(path)
+    """lang.fileio's atomic write (temporary file and rename, usual permissions); an unwritable
+    place is E614."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+        atomic_write_text(path, text)
     except OSError as exc:
-        raise InputError(error("E614", f"cannot write {path}: {exc.strerror}", None)) from None
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, target)
-    except BaseException as exc:
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(exc, OSError):
-            raise InputError(error("E614", f"cannot write {path}: {exc.strerror}",
-                                   None)) from None
-        raise
+        raise InputError(error("E614", f"cannot write {path}: {exc.strerror or exc}",
+                               None)) from None
 
 
 def _describe(planner) -> None:

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -77,24 +75,12 @@ def file_digest(path) -> str | None:
 
 
 def write_json_atomic(path, data) -> None:
-    """Write JSON to ``path`` through a temporary file in the same directory (never half a file)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or Path("."))
+    """Write JSON to ``path`` atomically (lang.fileio: never half a file, usual permissions);
+    an unwritable place is E828."""
+    from tmpc.lang.diagnostics import InputError, error
+    from tmpc.lang.fileio import atomic_write_text
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=1)
-            f.write("\n")
-        os.chmod(tmp, 0o666 & ~_umask())      # mkstemp makes 0600; a plan file is shareable
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+        atomic_write_text(path, json.dumps(data, indent=1) + "\n")
+    except OSError as exc:
+        raise InputError(error("E828", f"cannot write {path}: {exc.strerror or exc}", None,
+                               "check that the folder exists and is writable")) from None

@@ -8,15 +8,14 @@ over the thin tray lying on it, and subdividing faces to help it left seams.
 
 from __future__ import annotations
 
+import io
 import json
 import math
-import os
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.lang.fileio import atomic_write_bytes
 
 from .viewer_scene import Poser, Scene3D
 
@@ -209,15 +208,9 @@ def _save_png(img: np.ndarray, title: str, path) -> None:
     draw.rectangle((0, 0, im.width, band), fill=(255, 255, 255, 215))
     draw.text(((im.width - tw) / 2 - box[0], (band - th) / 2 - box[1]), title,
               fill=(34, 34, 51), font=font)
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or Path("."))
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            im.save(fh, format="PNG", optimize=True)
-        _publish(tmp, path)
-    except BaseException:
-        _unlink(tmp)
-        raise
+    buf = io.BytesIO()
+    im.save(buf, format="PNG", optimize=True)
+    _atomic_write(path, buf.getvalue())
 
 
 def _as_plan(plan_dict):
@@ -229,31 +222,9 @@ def _as_plan(plan_dict):
 
 
 def _atomic_write(path, data: bytes) -> None:
-    path = Path(path)
+    """lang.fileio's atomic write; an unwritable place is E815, not a traceback."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or Path("."))
+        atomic_write_bytes(path, data)
     except OSError as exc:
         raise InputError(error("E815", f"cannot write {path}: {exc.strerror or exc}", None)) \
             from None
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        _publish(tmp, path)
-    except BaseException:
-        _unlink(tmp)
-        raise
-
-
-def _publish(tmp, path) -> None:
-    """Rename ``tmp`` onto ``path`` with the permissions a new file gets (mkstemp's are 0600)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    os.replace(tmp, path)
-
-
-def _unlink(p) -> None:
-    try:
-        os.unlink(p)
-    except OSError:
-        pass

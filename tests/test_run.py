@@ -226,3 +226,11 @@ def test_geometric_goal_is_projected_and_validated(tmp_path):
     # the robot moved on after the place: to the blue cube, which is not where it placed
     place = next(i for i, st in enumerate(doc["states"]) if st["action"] and "place" in st["action"])
     assert doc["states"][-1]["joints"] != doc["states"][place]["joints"]
+
+
+def test_unwritable_plan_file_is_a_clear_error(tmp_path):
+    from tmpc.runtime.plan_output import write_json_atomic
+    with pytest.raises(TmpcError) as exc:
+        write_json_atomic(tmp_path / "no-such-folder" / "plan.json", {"states": []})
+    assert exc.value.diagnostics[0].code == "E828"
+    assert not (tmp_path / "no-such-folder").exists()
