@@ -146,11 +146,10 @@ class TmpProblem:
                                               np.zeros(0, np.int64))[0])
         fp = self.collision.first_pass()
         if fp is not None:
-            fp.reserve({self.model.frame(e.parent) for a in self.ground.actions
-                        for e in self.ground.kinematic_effects(self.ground.init, a)
-                        if self.model.frame(e.parent) is not None}
-                       | {self.model.frame(e.parent) for a in self.ground.actions
-                          for e in a.kinematic if self.model.frame(e.parent) is not None})
+            effects = [e for a in self.ground.actions
+                       for e in (*a.kinematic, *(k for ce in a.conditional for k in ce.kinematic))]
+            fp.reserve({f for f in (self.model.frame(e.parent) for e in effects)
+                        if f is not None})
         from .collision import PAD_SIZES
         for n in PAD_SIZES:
             self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,

@@ -348,8 +348,8 @@ class UnifiedPlanner:
 
     def _shortcut(self, path):
         """Random shortcuts inside each mode segment (the configurations where actions happen
-        stay), then drop states that do not change anything."""
-        p, out, seg = self.p, [], []
+        stay)."""
+        out, seg = [], []
         for item in path:
             seg.append(item)
             if item[2] is not None:
