@@ -2,8 +2,10 @@
 
 A :class:`Diagnostic` has a code (``E…`` error, ``W…`` warning), a span, a message, an optional
 hint and optional labelled related spans. :func:`render` prints it rustc-style with the source
-line and a caret; :func:`to_json` gives the machine form. The codes are listed in
-``docs/diagnostics.md``.
+line and a caret; :func:`to_json` gives the machine form. Every code is one of the vocabulary
+:mod:`tmpc.lang.codes` (documented in ``docs/diagnostics.md``): a :class:`Diagnostic` with a code
+not in it, or with another severity than the table's (an ``E…`` code made with :func:`warning`),
+raises :class:`DiagnosticCodeError`, a bug in tmpc rather than a problem of the user's.
 
 Exceptions (:class:`TmpcError` and subclasses) carry diagnostics for code paths that must stop.
 """
@@ -17,7 +19,8 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Iterable, Mapping
 
-from .source import SourceFile, Span
+from tmpc.lang.codes import CODES
+from tmpc.lang.source import SourceFile, Span
 
 
 class Severity(str, Enum):
@@ -34,6 +37,11 @@ class Related:
     label: str
 
 
+class DiagnosticCodeError(AssertionError):
+    """An internal error: a diagnostic made with a code that is not in :mod:`tmpc.lang.codes`,
+    or with a severity other than the one the table gives the code."""
+
+
 @dataclass(frozen=True, slots=True)
 class Diagnostic:
     code: str
@@ -42,6 +50,17 @@ class Diagnostic:
     span: Span | None
     hint: str | None = None
     related: tuple[Related, ...] = ()
+
+    def __post_init__(self) -> None:
+        # one dict lookup: a mistyped or undocumented code fails where it is made
+        entry = CODES.get(self.code)
+        if entry is None:
+            raise DiagnosticCodeError(f"diagnostic code {self.code!r} is not in tmpc.lang.codes "
+                                      "(add it there and to docs/diagnostics.md)")
+        if entry.severity != self.severity:
+            made = getattr(self.severity, "value", self.severity)
+            raise DiagnosticCodeError(f"diagnostic code {self.code} has severity "
+                                      f"{entry.severity!r} in tmpc.lang.codes, made as {made!r}")
 
     @property
     def is_error(self) -> bool:
