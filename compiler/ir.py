@@ -1,7 +1,7 @@
 """The typed expression IR every geometric formula compiles through.
 
 Native `:semantics` bodies (via :mod:`tmpc.compiler.lower`) and traced legacy Lua functions both
-produce this IR; the JAX backend (:mod:`tmpc.compiler.jaxgen`) turns it into truth and distance
+produce this IR; the JAX backend (:mod:`tmpc.compiler.kernels.emit`) turns it into truth and distance
 kernels. Nodes are frozen dataclasses, so structurally equal subtrees compare and hash equal and
 the backend computes each distinct subtree once.
 

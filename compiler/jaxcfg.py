@@ -12,10 +12,12 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
+from tmpc.compiler.cache import cache_root
+
 
 def cache_dir() -> Path:
-    root = os.environ.get("TMPC_CACHE_DIR") or os.path.join(Path.home(), ".cache", "tmpc")
-    return Path(root) / "jax"
+    """XLA's persistent compilation cache."""
+    return cache_root() / "jax"
 
 
 @lru_cache(maxsize=1)

@@ -10,12 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from itertools import count
 
+from tmpc.compiler import ir
+from tmpc.compiler.ir import BOOL, BOX, ENTITY, QUAT, SCALAR, TRANSFORM, VEC3
 from tmpc.lang import ast as A
 from tmpc.lang.scope import Scope
 from tmpc.lang.symbols import NUMBER_CONSTANTS
-
-from . import ir
-from .ir import BOOL, BOX, ENTITY, QUAT, SCALAR, TRANSFORM, VEC3
 
 _UNARY = {"abs", "sqrt", "exp", "log", "sin", "cos", "tan", "asin", "acos"}
 _CMP = {"<": "lt", "<=": "le", ">": "gt", ">=": "ge"}

@@ -34,11 +34,11 @@ from typing import Mapping
 
 import numpy as np
 
+from tmpc.compiler import ir
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import Diagnostic, LuaError, Related, error, warning
 from tmpc.lang.lua import LuaModule, arity_diagnostic
-
-from . import ir
+from tmpc.lang.source import SourceFile
 
 POSE_FIELDS = ("px", "py", "pz", "rx", "ry", "rz", "rw")
 
@@ -172,7 +172,6 @@ def trace_module(module: LuaModule, predicates: Mapping[str, A.PredicateDecl | i
 def _files(module: LuaModule, diags: list[Diagnostic]) -> dict:
     """The Lua file and the PDDL files the diagnostics point into (a declaration's span), so the
     CLI shows the predicate's line and column, not only the domain's path."""
-    from tmpc.lang.source import SourceFile
     files = dict(module.files)
     for d in diags:
         for span in (d.span, *(r.span for r in d.related)):

@@ -21,10 +21,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from tmpc.compiler.robot import RobotModel, base_yaw, homogeneous, make_fk
+from tmpc.compiler.rotations import matrix_to_quat as matrix_to_quat
+from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.lang.scene import Pose, Scene
-
-from .fk import RobotModel, base_yaw, homogeneous, pose_matrix
+from tmpc.lang.world import Pose, Scene
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +70,6 @@ def world_poses(state: WorldState, model: RobotModel | None, frames=None) -> dic
     out = dict(state.poses)
     if state.held:
         if frames is None:
-            from .fk import make_fk
             frames = make_fk(model)(state.q)
         T = homogeneous(frames)
         for obj, (frame, T_frame_obj) in state.held.items():
@@ -103,32 +103,6 @@ def _matrix_to_json(T: np.ndarray) -> dict:
             "rotation": [float(v) for v in matrix_to_quat(T[:3, :3])]}
 
 
-def matrix_to_quat(R: np.ndarray) -> tuple[float, float, float, float]:
-    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method), w >= 0."""
-    t = np.trace(R)
-    if t > 0:
-        s = math.sqrt(t + 1.0) * 2
-        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, \
-            (R[1, 0] - R[0, 1]) / s
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2
-        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, \
-            (R[0, 2] + R[2, 0]) / s
-    elif R[1, 1] > R[2, 2]:
-        s = math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2
-        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, \
-            (R[1, 2] + R[2, 1]) / s
-    else:
-        s = math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2
-        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, \
-            0.25 * s
-    q = np.array([x, y, z, w])
-    q /= np.linalg.norm(q)
-    if q[3] < 0:
-        q = -q
-    return tuple(float(v) for v in q)
-
-
 def state_to_json(state: WorldState, model: RobotModel | None, frames=None) -> dict:
     out: dict = {"joints": {}, "object_poses": {}}
     if model is not None:
@@ -137,7 +111,6 @@ def state_to_json(state: WorldState, model: RobotModel | None, frames=None) -> d
         out["joints"] = {k: v for k, v in joints.items() if k not in ("base_x", "base_y",
                                                                      "base_yaw")}
         if frames is None:
-            from .fk import make_fk
             frames = make_fk(model)(state.q)
         out["base_pose"] = _matrix_to_json(homogeneous(frames)[model.frame(model.tree.root)])
     for name, T in sorted(world_poses(state, model, frames).items()):
@@ -209,7 +182,6 @@ def state_from_json(data, scene: Scene, model: RobotModel | None, base: WorldSta
         atoms = frozenset(str(a) for a in mode.get("atoms", sorted(atoms)))
         new_held = mode.get("held") or {}
         if new_held:
-            from .fk import make_fk
             T = homogeneous(make_fk(model)(q))
         for obj, frame in new_held.items():
             if scene.object(obj) is None:

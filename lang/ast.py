@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Union
 
-from .source import Span
+from tmpc.lang.source import Span
 
 _SPAN = dict(compare=False, repr=False, kw_only=True, default=None)   # None: synthesized
 

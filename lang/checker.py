@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import ast as A
-from . import symbols as K
-from .checker_expr import ExprChecker
-from .diagnostics import Diagnostic, DiagnosticSink, Related, error, warning
-from .scope import OBJECT, ObjectInfo, Scope, type_keys
-from .source import Span
+from tmpc.lang import ast as A
+from tmpc.lang import symbols as K
+from tmpc.lang.checker_expr import ExprChecker
+from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, error, warning
+from tmpc.lang.reader_common import suggest
+from tmpc.lang.scope import OBJECT, ObjectInfo, Scope, type_keys
+from tmpc.lang.source import Span
 
 LEGACY = (A.Dialect.PLANET, A.Dialect.TMIT_STAR)
 
@@ -452,5 +453,4 @@ def _types(keys: tuple[str, ...]) -> str:
 
 
 def _did_you_mean(word: str, table) -> str | None:
-    from .reader_common import suggest
     return suggest(word, table)

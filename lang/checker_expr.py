@@ -8,11 +8,11 @@ types of that call (results are memoized per argument-type tuple).
 
 from __future__ import annotations
 
-from . import ast as A
-from . import symbols as K
-from .diagnostics import DiagnosticSink, Related, error
-from .reader_common import suggest
-from .scope import Scope, type_keys
+from tmpc.lang import ast as A
+from tmpc.lang import symbols as K
+from tmpc.lang.diagnostics import DiagnosticSink, Related, error
+from tmpc.lang.reader_common import suggest
+from tmpc.lang.scope import Scope, type_keys
 
 ANY_OBJECT = "object"
 

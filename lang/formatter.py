@@ -13,8 +13,8 @@ from __future__ import annotations
 import bisect
 from dataclasses import dataclass
 
-from .reader_common import head, is_keyword, sym
-from .sexpr import Comment, SAtom, SExpr, SexprDoc, SList
+from tmpc.lang.reader_common import head, is_keyword, sym
+from tmpc.lang.sexpr import Comment, SAtom, SExpr, SexprDoc, SList
 
 WIDTH = 100
 INDENT = 2

@@ -22,8 +22,8 @@ from typing import Any
 from lark import Lark, Token, Transformer
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from .diagnostics import Related, SceneError, error
-from .source import SourceFile, Span
+from tmpc.lang.diagnostics import Related, SceneError, error
+from tmpc.lang.source import SourceFile, Span
 
 __all__ = ["JsonDoc", "parse_json", "pointer", "escape_pointer"]
 

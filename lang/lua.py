@@ -24,8 +24,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Sequence
 
-from .diagnostics import Diagnostic, LuaError, Related, error
-from .source import SourceFile, Span
+from tmpc.lang.diagnostics import Diagnostic, LuaError, Related, error
+from tmpc.lang.source import SourceFile, Span
 
 DIALECTS = ("planet", "tmit-star")
 _LABEL = "tmpc-user"      # the chunk name user code runs under (messages are re-located)

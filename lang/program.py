@@ -11,11 +11,21 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from . import ast as A
-from .checker import Checker, CheckedProgram
-from .diagnostics import CheckError, Diagnostic, InputError, Related, error, warning
-from .reader import ParsedFile, parse_source
-from .source import SourceFile, Span
+from tmpc.lang import ast as A
+from tmpc.lang.checker import CheckedProgram, Checker
+from tmpc.lang.diagnostics import (
+    CheckError,
+    Diagnostic,
+    InputError,
+    Related,
+    TmpcError,
+    error,
+    warning,
+)
+from tmpc.lang.lua import load_lua_predicates
+from tmpc.lang.reader import ParsedFile, parse_source
+from tmpc.lang.source import SourceFile, Span
+from tmpc.lang.world import LoadReport, is_run_config, load_config, load_scene, load_urdf
 
 STDLIB_PREFIX = "tmpc/"
 MODULE_SUFFIX = ".tmpc"
@@ -207,19 +217,13 @@ WORLD_SUFFIXES = (".lua", ".toml", ".json", ".xml", ".urdf")
 def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
     """Load a Lua file, run configuration, scene or URDF the way a run would; its problems
     become diagnostics."""
-    from .configs import is_run_config
-    from .diagnostics import TmpcError
     suffix = path.suffix.lower()
     try:
         if suffix == ".lua":
-            from .lua import load_lua_predicates
             load_lua_predicates(path)
         elif suffix == ".urdf":
-            from .robot import load_urdf
             load_urdf(path.resolve())
         elif is_run_config(path):
-            from .configs import load_config
-            from .scenes import LoadReport, load_scene
             report = LoadReport()
             config = load_config(path, report=report)
             # the scene, Lua file, domain and problem it names are checked as a run reads them
@@ -229,7 +233,6 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             ws.configs.append(config)
             return list(report.warnings)
         else:
-            from .scenes import LoadReport, load_scene
             report = LoadReport()
             load_scene(path, report=report)
             ws.files.update(report.files)
@@ -265,7 +268,6 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckRe
 def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
     """Every geometric predicate without inline semantics needs a function in the Lua file the
     run configuration names (E707), as the compiler will look it up."""
-    from .diagnostics import TmpcError
     out: list[Diagnostic] = []
     for config in ws.configs:
         prog = next((p for p in programs if p.problem is not None and p.problem.span is not None
@@ -282,7 +284,6 @@ def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
                                  f"semantics and {config.path} names no Lua file", d.span,
                                  "add `semantics = \"predicates.lua\"` to the configuration"))
             continue
-        from .lua import load_lua_predicates
         try:
             module = load_lua_predicates(config.semantics)
         except TmpcError as exc:

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import ast as A
-from . import symbols as K
-from .diagnostics import Diagnostic, DiagnosticSink, Related, warning
-from .reader_common import describe, head, is_keyword, is_sym, suggest, sym
-from .reader_formulas import FormulaReader
-from .sexpr import SAtom, SExpr, SexprDoc, SList, parse_sexpr
-from .source import SourceFile, Span
+from tmpc.lang import ast as A
+from tmpc.lang import symbols as K
+from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, warning
+from tmpc.lang.reader_common import describe, head, is_keyword, is_sym, suggest, sym
+from tmpc.lang.reader_formulas import FormulaReader
+from tmpc.lang.sexpr import SAtom, SExpr, SexprDoc, SList, parse_sexpr
+from tmpc.lang.source import SourceFile, Span
 
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
 DOMAIN_ONLY = frozenset({":types", ":constants", ":predicates", ":functions", ":action",

@@ -6,10 +6,10 @@ import difflib
 import re
 from typing import Iterable, Sequence
 
-from . import ast as A
-from .diagnostics import Diagnostic, DiagnosticSink, error, warning
-from .sexpr import SAtom, SExpr, SList
-from .source import Span
+from tmpc.lang import ast as A
+from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, error, warning
+from tmpc.lang.sexpr import SAtom, SExpr, SList
+from tmpc.lang.source import Span
 
 NUMBER_RE = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\Z")
 NAME_RE = re.compile(r"[A-Za-z_@][^\s()\";?]*\Z")

@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
-from . import ast as A
-from . import symbols as K
-from .reader_common import (ReaderBase, describe, head, is_keyword, is_number, is_sym, is_var,
-                            suggest, sym)
-from .sexpr import SAtom, SExpr, SList
+from tmpc.lang import ast as A
+from tmpc.lang import symbols as K
+from tmpc.lang.diagnostics import DiagnosticSink, ParseError, error
+from tmpc.lang.reader_common import (
+    ReaderBase,
+    describe,
+    head,
+    is_keyword,
+    is_number,
+    is_sym,
+    is_var,
+    suggest,
+    sym,
+)
+from tmpc.lang.sexpr import SAtom, SExpr, SList, parse_sexpr
+from tmpc.lang.source import SourceFile
 
 
 class FormulaReader(ReaderBase):
@@ -222,3 +233,18 @@ class FormulaReader(ReaderBase):
 
 def _is_term(x: SExpr) -> bool:
     return is_sym(x) and not is_number(x) and not is_keyword(x) and sym(x) not in K.NUMERIC_OPS
+
+
+def parse_expr(text: str) -> tuple[A.Expr, SourceFile]:
+    """One expression from a command line (``tmpc eval --expr``), read as in a ``:semantics``
+    body; its source is ``<expr>``."""
+    src = SourceFile("<expr>", text)
+    doc = parse_sexpr(src)
+    sink = DiagnosticSink(list(doc.diagnostics))
+    if len(doc.items) != 1 and not sink.has_errors:
+        sink.add(error("E113", "expected exactly one expression", src.span(0, len(text))))
+    reader = FormulaReader(sink)
+    value = reader.expr(doc.items[0]) if doc.items else None
+    if sink.has_errors or value is None:
+        raise ParseError(sink.items or [error("E113", "empty expression", None)], {src.path: src})
+    return value, src

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from . import ast as A
+from tmpc.lang import ast as A
 
 OBJECT = "object"
 

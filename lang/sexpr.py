@@ -20,8 +20,8 @@ from functools import lru_cache
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
 
-from .diagnostics import Diagnostic, Related, error
-from .source import SourceFile, Span
+from tmpc.lang.diagnostics import Diagnostic, Related, error
+from tmpc.lang.source import SourceFile, Span
 
 
 @dataclass(frozen=True, slots=True)

@@ -13,13 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tmpc.compiler.robot import RobotModel, homogeneous
+from tmpc.compiler.rotations import matrix_to_quat, quat_matrix, rpy_of
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.lang.scene import Scene
 from tmpc.lang.symbols import NUMBER_CONSTANTS
-
-from tmpc.compiler.fk import RobotModel, homogeneous
-from tmpc.compiler.state import matrix_to_quat
+from tmpc.lang.world import Scene
 
 
 @dataclass(frozen=True)
@@ -51,19 +50,6 @@ def _fail(msg: str, node=None, hint: str | None = None) -> EvalError:
 def _rot(T_or_R) -> np.ndarray:
     M = np.asarray(T_or_R)
     return M[:3, :3]
-
-
-def rpy_of(R: np.ndarray) -> np.ndarray:
-    """(roll, pitch, yaw) with R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    pitch = math.asin(max(-1.0, min(1.0, -R[2, 0])))
-    return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])])
-
-
-def quat_matrix(q: Quat) -> np.ndarray:
-    x, y, z, w = q.xyzw
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 class Evaluator:
@@ -234,7 +220,7 @@ class Evaluator:
         raise TypeError(f"expected an object or a transform, got {_show(v)}")
 
     def R(self, v, e) -> np.ndarray:
-        return quat_matrix(v) if isinstance(v, Quat) else _rot(self.T(v, e))
+        return quat_matrix(v.xyzw) if isinstance(v, Quat) else _rot(self.T(v, e))
 
     def extent(self, o: Obj, e) -> np.ndarray:
         obj = self.scene.object(o.name)
@@ -364,7 +350,7 @@ _OPS = {
     "pitch": lambda ev, e, o: float(rpy_of(ev.R(o, e))[1]),
     "yaw": lambda ev, e, o: float(rpy_of(ev.R(o, e))[2]),
     "x-axis": _axis(0), "y-axis": _axis(1), "z-axis": _axis(2),
-    "rotate": lambda ev, e, q, v: quat_matrix(q) @ _vec(v),
+    "rotate": lambda ev, e, q, v: quat_matrix(q.xyzw) @ _vec(v),
     "relative": lambda ev, e, a, b: (np.linalg.inv(ev.T(b, e)) @ np.append(ev.T(a, e)[:3, 3],
                                                                            1.0))[:3],
     "extent": lambda ev, e, o: ev.extent(o, e),

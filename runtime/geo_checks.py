@@ -16,7 +16,10 @@ import time
 
 import numpy as np
 
-from tmpc.compiler.smt_checks import _note  # the W613 "not checked" note
+from tmpc.compiler.compile import compile_world
+from tmpc.compiler.kernels import make_projector, state_inputs, uniform_starts
+from tmpc.compiler.smt import _note  # the W613 "not checked" note
+from tmpc.compiler.state import initial_state
 from tmpc.lang.diagnostics import Diagnostic, TmpcError, warning
 
 #: projection starts per condition
@@ -24,24 +27,18 @@ STARTS = 256
 
 
 def geometric_checks(world, budget_s: float = 60.0, seed: int = 0) -> list[Diagnostic]:
-    from tmpc.compiler.compile import CompiledProgram
-    from tmpc.compiler.ground import ground
-    from tmpc.compiler.jaxgen import state_inputs
-    from tmpc.compiler.project import make_projector, uniform_starts
-    from tmpc.compiler.state import initial_state
-    from .sample_command import load_external
     prog = world.program
-    if prog is None or prog.problem is None or world.model is None:
+    if prog is None or prog.problem is None or world.scene.robot is None:
         return []
     t0 = time.perf_counter()
+    compiled = compile_world(world)
     try:
-        gp = ground(prog)
+        gp = compiled.ground
     except TmpcError:
         return []           # the SAT checks already say the problem is too large to ground
-    compiled = CompiledProgram(prog, world.scene, world.model, external=load_external(world))
-    s0 = initial_state(world.scene, world.model)
-    _, obj_T, parent = state_inputs(compiled.world, s0)
-    model = world.model
+    model = compiled.model
+    s0 = initial_state(world.scene, model)
+    _, obj_T, parent = state_inputs(compiled.tables, s0)
     rng = np.random.default_rng(seed)
     out: list[Diagnostic] = []
     todo = []

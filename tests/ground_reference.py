@@ -4,7 +4,7 @@ No pruning, no normalization: every type-correct binding of every action is an a
 a set of ``(predicate key, object keys)`` facts (static ones included), formulas and effects are
 interpreted recursively, derived predicates are recomputed by a naive stratified fixpoint.
 Geometric literals count as satisfied (either polarity), as in the grounder's discrete view.
-It is slow and obviously correct; tests compare :mod:`tmpc.compiler.ground` against it.
+It is slow and obviously correct; tests compare :mod:`tmpc.compiler.ground.problem` against it.
 """
 
 from __future__ import annotations

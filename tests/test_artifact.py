@@ -10,8 +10,10 @@ import zipfile
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
+
+from tmpc.compiler.compile import compile_world
+from tmpc.runtime.collision import collision_world
 
 
 def cli(*args, cwd=None):
@@ -45,15 +47,16 @@ def test_artifact_carries_the_robots_srdf(artifact):
     """Self-collision pairs the SRDF disables must stay disabled in a run from the artifact
     (without it the PR2's finger tips collide in its start state)."""
     import numpy as np
+
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
     with zipfile.ZipFile(artifact) as z:
         assert any(n.endswith(".srdf") for n in z.namelist())
-    world = load_world(artifact)
-    source = load_world(EXAMPLES / "tabletop" / "tabletop.toml")
-    a, b = world.collision(), source.collision()
+    world = open_world(artifact)
+    source = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    a, b = collision_world(world, compile_world(world)), collision_world(source, compile_world(source))
     assert np.array_equal(a.allowed, b.allowed)
-    s0 = initial_state(world.scene, world.model)
+    s0 = initial_state(world.scene, compile_world(world).model)
     assert a.check(s0.q, poses=s0.poses, attached=s0.held).valid
 
 
@@ -69,20 +72,18 @@ def test_manifest_and_members(artifact):
 
 
 def test_exported_kernels_equal_rebuilt_ones(artifact):
-    from tmpc.compiler.artifact import exported_kernels, read_manifest
-    from tmpc.compiler.compile import CompiledProgram
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.artifact import exported_kernels, open_world, read_manifest
+    from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
-    world = load_world(artifact)
+    world = open_world(artifact)
     manifest, _ = read_manifest(artifact)
     exported = exported_kernels(artifact, manifest)
     assert set(exported) == {("predicate", "reach"), ("predicate", "over"), ("action", "pick"),
                              ("action", "place")}
-    compiled = CompiledProgram(world.program, world.scene, world.model)
-    q, T, par = state_inputs(compiled.world, initial_state(world.scene, world.model))
+    compiled = compile_world(world)
+    q, T, par = state_inputs(compiled.tables, initial_state(world.scene, compile_world(world).model))
     rng = np.random.default_rng(0)
-    Q = rng.uniform(world.model.lower, world.model.upper, (16, world.model.dof))
+    Q = rng.uniform(compile_world(world).model.lower, compile_world(world).model.upper, (16, compile_world(world).model.dof))
     f = compiled.predicate("reach")
     kernel, _ = compiled.kernels(f)
     ids = compiled.bind_args(f, ["panda_hand_tcp", "red_cube"])

@@ -25,7 +25,7 @@ TYPES = {"REAL", "INTEGER", "BOOLEAN", "ENUM"}
 @pytest.fixture(scope="module")
 def swept(tmp_path_factory):
     """One real sweep through the CLI: clutter, 2 seeds, validated."""
-    from tmpc.runtime.cli import main
+    from tmpc.runtime.cli.main import main
     d = tmp_path_factory.mktemp("bench")
     out, log = d / "results.json", d / "results.log"
     code = main(["bench", str(CLUTTER), "--seeds", str(SEEDS), "--time-limit", "30",
@@ -213,7 +213,7 @@ def test_ompl_log_reads_into_planner_arena_database(swept, tmp_path):
 
 
 def test_table_has_one_row_per_problem_and_planner(swept, capsys):
-    from tmpc.runtime.bench_command import markdown_table
+    from tmpc.runtime.bench.sweep import markdown_table
     table = markdown_table(swept.doc["summary"], 30.0)
     lines = table.splitlines()
     assert len(lines) == 3 and lines[2].startswith("| clutter | unified | 2/2 |")
@@ -224,9 +224,10 @@ def test_table_has_one_row_per_problem_and_planner(swept, capsys):
 @pytest.fixture(scope="module")
 def clutter_problem():
     import numpy as np
-    from tmpc.runtime.tmp_problem import TmpProblem
-    from tmpc.runtime.world import load_world
-    problem = TmpProblem(load_world(CLUTTER))
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.problem import TmpProblem
+    problem = TmpProblem(open_world(CLUTTER))
     problem.warm_up(np.random.default_rng(0))
     return problem
 
@@ -242,7 +243,8 @@ def _args(tmp_path, **kw):
 def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem, tmp_path, monkeypatch):
     """A planner that returns `interrupted` (Ctrl-C inside its loop) ends the sweep; the runs so
     far are written, status `interrupted`."""
-    from tmpc.runtime import bench_command as bc
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import exit_code
     real = bc.make_planner
 
     def fake(name, problem, seed, args):
@@ -255,14 +257,14 @@ def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem, tmp_path, mo
     monkeypatch.setattr(bc, "make_planner", fake)
     args = _args(tmp_path)
     bench = bc.Bench(args, ["unified"], ["clutter"])
-    with pytest.raises(bc._Stop):
+    with pytest.raises(bc.Stop):
         bench.problem(CLUTTER, "clutter", problem=clutter_problem)
     bench.interrupted = True
     bench.finish()
     doc = json.loads(Path(args.output).read_text())
     assert doc["status"] == "interrupted"
     assert [(r["seed"], r["status"]) for r in doc["runs"]] == [(0, "solved"), (1, "interrupted")]
-    assert bench.exit_code() == 130
+    assert exit_code(bench) == 130
     (row,) = doc["summary"]                      # the interrupted run is not a failure
     assert (row["runs"], row["solved"]) == (1, 1)
     log = read_ompl_log(Path(args.ompl_log))
@@ -278,7 +280,8 @@ def _interrupted(result):
 
 def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monkeypatch):
     """Ctrl-C outside the planner's loop (e.g. setting up the next run) also keeps the runs."""
-    from tmpc.runtime import bench_command as bc
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import run_bench
     real, calls = bc.make_planner, []
 
     def fake(name, problem, seed, args):
@@ -289,7 +292,7 @@ def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monke
 
     monkeypatch.setattr(bc, "make_planner", fake)
     monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
-    code = bc.run_bench(_args(tmp_path))
+    code = run_bench(_args(tmp_path))
     assert code == 130 and calls == [0, 1, 2]
     doc = json.loads((tmp_path / "r.json").read_text())
     assert doc["status"] == "interrupted" and len(doc["runs"]) == 2
@@ -297,15 +300,15 @@ def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monke
 
 
 def test_a_crash_is_recorded_with_its_reproducer(clutter_problem, tmp_path, monkeypatch, capsys):
-    from tmpc.runtime import bench_command as bc
-
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import run_bench
     class Boom:
         def solve(self, limit, progress=None):
             raise RuntimeError("boom")
 
     monkeypatch.setattr(bc, "make_planner", lambda *a: Boom())
     monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
-    code = bc.run_bench(_args(tmp_path, seeds=1))
+    code = run_bench(_args(tmp_path, seeds=1))
     assert code == 70
     (run,) = json.loads((tmp_path / "r.json").read_text())["runs"]
     assert run["status"] == "crash" and "boom" in run["error"]
@@ -317,9 +320,10 @@ def test_a_crash_is_recorded_with_its_reproducer(clutter_problem, tmp_path, monk
 
 
 def test_several_problems_one_log_each(clutter_problem, tmp_path, monkeypatch):
-    from tmpc.runtime import bench_command as bc
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import run_bench
     monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
-    code = bc.run_bench(_args(tmp_path, inputs=[str(CLUTTER), str(CLUTTER)], seeds=1))
+    code = run_bench(_args(tmp_path, inputs=[str(CLUTTER), str(CLUTTER)], seeds=1))
     assert code == 0
     doc = json.loads((tmp_path / "r.json").read_text())
     assert [p["name"] for p in doc["problems"]] == ["clutter", "clutter-2"]
@@ -330,7 +334,7 @@ def test_several_problems_one_log_each(clutter_problem, tmp_path, monkeypatch):
 
 # ---- bad input ---------------------------------------------------------------------------------
 def test_bad_input_fails_before_planning(tmp_path):
-    from tmpc.runtime.bench_command import run_bench
+    from tmpc.runtime.cli.bench import run_bench
     with pytest.raises(TmpcError) as exc:
         run_bench(_args(tmp_path, inputs=[str(CLUTTER), str(tmp_path / "missing.toml")]))
     assert exc.value.diagnostics[0].code == "E010"
@@ -338,7 +342,7 @@ def test_bad_input_fails_before_planning(tmp_path):
 
 
 def test_unknown_planner_and_unwritable_output(tmp_path):
-    from tmpc.runtime.bench_command import run_bench
+    from tmpc.runtime.cli.bench import run_bench
     with pytest.raises(TmpcError) as exc:
         run_bench(_args(tmp_path, planners="unified,nope"))
     assert exc.value.diagnostics[0].code == "E826"
@@ -351,8 +355,8 @@ def test_unknown_planner_and_unwritable_output(tmp_path):
 
 def test_unreachable_goal_is_reported_and_skipped(tmp_path, capsys):
     """A problem failing `tmpc run`'s pre-checks mid-sweep: diagnostics, recorded, exit 1."""
-    from tmpc.runtime.bench_command import run_bench
-    from tmpc.runtime.worlds import clutter_scene
+    from tmpc.lang.world.generate import clutter_scene
+    from tmpc.runtime.cli.bench import run_bench
     (tmp_path / "scene.json").write_text(json.dumps(clutter_scene(1, False)))
     # no manipulator: nothing can ever pick the stick up
     prob = """(define (problem no-hands) (:domain clutter)
@@ -372,7 +376,7 @@ def test_unreachable_goal_is_reported_and_skipped(tmp_path, capsys):
 
 
 def test_quantile_counts_unsolved_runs_as_infinite():
-    from tmpc.runtime.bench_command import quantile
+    from tmpc.runtime.bench.sweep import quantile
     assert quantile([1.0, 2.0, 3.0], 0.5) == 2.0
     assert quantile([1.0, 3.0], 0.5) == 2.0
     assert quantile([1.0, math.inf, math.inf], 0.5) == math.inf

@@ -1,4 +1,4 @@
-"""Collision checking (tmpc.runtime.collision, .spheres): hand-made scenes with known answers,
+"""Collision checking (tmpc.runtime.collision.world, .spheres): hand-made scenes with known answers,
 the sound first pass against exact fcl, and agreement with an independent implementation
 (pinocchio + coal) on thousands of random PR2 and Panda states."""
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from tmpc.lang.diagnostics import SceneError
-from tmpc.lang.robot import load_urdf
-from tmpc.lang.scene import Pose, RobotSpec, Scene, SceneObject, Shape
+from tmpc.lang.world import load_urdf
+from tmpc.lang.world.scene import Pose, RobotSpec, Scene, SceneObject, Shape
 
 fcl = pytest.importorskip("fcl")
 
@@ -23,8 +23,8 @@ TOOL = "r_gripper_tool_frame"
 
 
 def _load(name: str, **spec):
-    from tmpc.compiler.fk import build_robot_model
-    from tmpc.runtime.collision import _jit_fk
+    from tmpc.compiler.robot import build_robot_model
+    from tmpc.runtime.collision.world import _jit_fk
     tree = load_urdf(ROBOTS[name])
     model = build_robot_model(tree, RobotSpec(urdf=tree.path, **spec))
     return model, _jit_fk(model)
@@ -66,7 +66,7 @@ def world(robot, *objects, allowed_collisions=(), **kw):
 
 
 def frame_T(robot, q, name):
-    from tmpc.compiler.fk import homogeneous
+    from tmpc.compiler.robot import homogeneous
     model, fk = robot
     return homogeneous(fk(np.asarray(q, float)))[model.frame(name)]
 
@@ -87,7 +87,7 @@ def q_with(model, **values):
 
 
 def test_pr2_default_configuration_is_free_and_allowed_pairs_come_from_srdf_and_tree(pr2):
-    from tmpc.runtime.collision import find_srdf, srdf_disabled_pairs  # re-exported
+    from tmpc.runtime.collision.world import find_srdf, srdf_disabled_pairs  # re-exported
     model, _ = pr2
     w = world(pr2)
     assert w.check(model.default_q).valid
@@ -261,8 +261,8 @@ def test_motion_finds_the_first_collision_and_takes_the_short_way_round(pr2):
 
 
 def test_covers_contain_their_geometry():
-    from tmpc.runtime.collision_geometry import load_mesh
-    from tmpc.runtime.spheres import ball, cover
+    from tmpc.runtime.collision.geometry import load_mesh
+    from tmpc.runtime.collision.spheres import ball, cover
     rng = np.random.default_rng(0)
     tree = load_urdf(ROBOTS["pr2"])
     shapes = [(g.shape, load_mesh(g.shape.mesh, g.shape.scale) if g.shape.kind == "mesh"
@@ -333,7 +333,7 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
-    from tmpc.runtime.collision import _world
+    from tmpc.runtime.collision.world import _world
     model, _ = pr2
     w = world(pr2)
     fp = w.first_pass()
@@ -461,7 +461,7 @@ def test_agrees_with_pinocchio_and_coal_on_random_states(name, request):
     """Every colliding pair (self-collision and robot vs box) of 2000 random states, ours
     (python-fcl) against pinocchio + coal; pairs we allow are not compared."""
     pin = pytest.importorskip("pinocchio")
-    from tmpc.lang.robot import example_robot_data_dir
+    from tmpc.lang.world.robot import example_robot_data_dir
     model, fk = request.getfixturevalue(name)
     objs = AGREEMENT_SCENES[name]
     w = world((model, fk), *objs)
@@ -471,7 +471,8 @@ def test_agrees_with_pinocchio_and_coal_on_random_states(name, request):
                                    package_dirs=[str(example_robot_data_dir().parent)])
     owner = [pmodel.frames[o.parentFrame].name for o in gmodel.geometryObjects]
     import coal
-    from tmpc.compiler.fk import pose_matrix
+
+    from tmpc.compiler.rotations import pose_matrix
     for o in objs:
         T = pose_matrix(o.pose)
         gmodel.addGeometryObject(pin.GeometryObject(o.name, 0, pin.SE3(T[:3, :3], T[:3, 3]),

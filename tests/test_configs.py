@@ -8,13 +8,18 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
 from test_scenes import pos_of, raises, where
-from tmpc.lang.configs import (CONFIG_LOADERS, PLANNER_PARAMS, load_config, load_planet_params,
-                               toml_positions)
-from tmpc.lang.scenes import LoadReport, load_allowed_pairs, load_scene
+
 from tmpc.lang.source import SourceFile
+from tmpc.lang.world import LoadReport, load_allowed_pairs, load_scene
+from tmpc.lang.world.configs import (
+    CONFIG_LOADERS,
+    PLANNER_PARAMS,
+    load_config,
+    load_planet_params,
+    toml_positions,
+)
 
 CONFIGS = FIXTURES / "configs"
 SCENES = FIXTURES / "scenes"
@@ -213,7 +218,7 @@ def test_wrong_kind_of_file_and_unknown_format(tmp_path):
 
 
 def test_config_loader_does_not_import_heavy_modules():
-    code = ("import sys, tmpc.lang.configs\n"
+    code = ("import sys, tmpc.lang.world.configs\n"
             "print(sorted(m for m in ('numpy', 'jax', 'z3', 'lxml', 'yourdfpy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
@@ -255,14 +260,14 @@ def test_every_legacy_config_loads():
 def test_native_manifest_sets_the_collision_tolerance(tmp_path):
     """`[planner] collision_tolerance` is the penetration depth `tmpc run`/`validate` ignore
     (docs/planning.md); E823's help points users at it, so the manifest must accept it."""
-    from tmpc.runtime.validate import default_tolerance
-    from tmpc.runtime.world import load_world
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate.core import default_tolerance
     d = copy_tree(EXAMPLES / "tabletop", tmp_path / "tabletop")
     run = d / "tabletop.toml"
     run.write_text(run.read_text() + "\n[planner]\ncollision_tolerance = 0.015\n")
     c = load_config(run)
     assert dict(c.params)["collision_tolerance"] == 0.015
-    assert default_tolerance(load_world(run, with_program=False)) == 0.015
+    assert default_tolerance(open_world(run, with_program=False)) == 0.015
     run.write_text(run.read_text().replace("0.015", "-1"))
     check_error("E512", run, "-1")
 

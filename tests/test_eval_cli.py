@@ -7,7 +7,6 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import EXAMPLES
 
 TABLETOP = str(EXAMPLES / "tabletop" / "tabletop.toml")
@@ -63,8 +62,8 @@ def test_held_object_in_state_json_moves_with_the_hand():
 @pytest.mark.parametrize("args, code", [
     (["--expr", "(position nowhere)"], "E581"),
     (["--expr", "(position"], "E001"),
-    (["--predicate", "on", "red_cube", "bench"], "E582"),
-    (["--predicate", "over", "panda_hand_tcp"], "E582"),
+    (["--predicate", "on", "red_cube", "bench"], "E586"),
+    (["--predicate", "over", "panda_hand_tcp"], "E588"),
 ])
 def test_errors_are_diagnostics(args, code):
     r = run(TABLETOP, *args)

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tmpc.lang.robot import load_urdf
-from tmpc.lang.scene import Pose, RobotSpec
+from tmpc.lang.world import Pose, RobotSpec, load_urdf
 
 pin = pytest.importorskip("pinocchio")
 
@@ -18,8 +17,8 @@ ROBOTS = {
 
 @pytest.fixture(scope="module", params=sorted(ROBOTS))
 def robot(request):
-    from tmpc.compiler.fk import build_robot_model, make_fk
     from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.robot import build_robot_model, make_fk
     jax = configured()
     tree = load_urdf(ROBOTS[request.param])
     model = build_robot_model(tree, RobotSpec(urdf=tree.path))
@@ -65,8 +64,8 @@ def test_fk_matches_pinocchio_on_random_configurations(robot):
 
 
 def test_batched_equals_single_and_gradients_match_finite_differences(robot):
-    from tmpc.compiler.fk import make_fk
     from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.robot import make_fk
     jax = configured()
     tree, model, fk = robot
     rng = np.random.default_rng(3)
@@ -95,7 +94,7 @@ def test_batched_equals_single_and_gradients_match_finite_differences(robot):
 
 
 def test_mobile_base_and_joint_aliases():
-    from tmpc.compiler.fk import build_robot_model, make_fk
+    from tmpc.compiler.robot import build_robot_model, make_fk
     tree = load_urdf(ROBOTS["pr2"])
     spec = RobotSpec(urdf=tree.path, mobile_base=True, base_pose=Pose((0.0, 0.0, 0.1)),
                      joint_values=(("torso_lift_joint", 0.2),))
@@ -118,7 +117,7 @@ def test_mobile_base_and_joint_aliases():
 
 
 def test_unknown_joint_in_scene_is_a_clear_error():
-    from tmpc.compiler.fk import build_robot_model
+    from tmpc.compiler.robot import build_robot_model
     from tmpc.lang.diagnostics import SceneError
     tree = load_urdf(ROBOTS["panda"])
     with pytest.raises(SceneError, match="panda_joint9") as info:

@@ -7,9 +7,9 @@ from collections import deque
 from pathlib import Path
 
 import pytest
-
 from conftest import EXAMPLES, FIXTURES, check
 from ground_reference import Reference
+
 from tmpc.compiler.ground import GroundingError, bits, ground
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile
@@ -157,7 +157,7 @@ def test_agrees_with_naive_reference(name):
 
 
 def test_clutter_14_plus_14_red():
-    from tmpc.runtime.worlds import clutter_problem
+    from tmpc.lang.world.generate import clutter_problem
     prog = _load((EXAMPLES / "clutter" / "domain.pddl").read_text(), clutter_problem(14, True))
     t0 = time.perf_counter()
     gp = ground(prog)

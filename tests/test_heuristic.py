@@ -1,4 +1,4 @@
-"""The FF heuristic (runtime/heuristic.py), checked against an independent naive relaxation."""
+"""The FF heuristic (runtime/planners/heuristic.py), checked against an independent naive relaxation."""
 
 from __future__ import annotations
 
@@ -8,13 +8,17 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
-from tmpc.compiler.ground import bits, ground
-from tmpc.compiler.ground_formula import relaxed_holds
+
+from tmpc.compiler.ground import bits, ground, relaxed_holds
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile
-from tmpc.runtime.heuristic import (GOAL_PRIORITY, FFHeuristic, RelaxedTask, ScaledPriorities)
+from tmpc.runtime.planners.heuristic import (
+    GOAL_PRIORITY,
+    FFHeuristic,
+    RelaxedTask,
+    ScaledPriorities,
+)
 
 # ---- problems -----------------------------------------------------------------------------------
 
@@ -347,7 +351,7 @@ def test_derived_goal_blocksworld():
 
 @pytest.mark.parametrize("n", [1, 3, 6])
 def test_clutter_sticks(n):
-    from tmpc.runtime.worlds import clutter_problem, stick_name
+    from tmpc.lang.world.generate import clutter_problem, stick_name
     text = (EXAMPLES / "clutter" / "domain.pddl").read_text() + clutter_problem(n, red=True)
     gp = _load_text(text)
     H = FFHeuristic(gp)
@@ -393,37 +397,38 @@ def test_scaled_priority_math():
     sp = ScaledPriorities(_Fixed([(A, 1.0), (B, 0.25), (None, 4.0)]))
     assert sp.gamma == 100.0
     assert sp.scaled(7) == [(A, 1.0), (B, 0.25), (None, 4.0)]
-    sp.record_failure(7, A)
-    sp.record_failure(7, A)
-    sp.record_success(7, B)
-    sp.record_success(7, None)
-    sp.record_failure(8, B)              # another state: counted apart
-    assert sp.counts(7, A) == (2, 0) and sp.counts(7, B) == (0, 1) and sp.counts(8, B) == (1, 0)
+    sp.record_failure(sp.entry(7, A))
+    sp.record_failure(sp.entry(7, A))
+    sp.record_success(sp.entry(7, B))
+    sp.record_success(sp.entry(7, None))
+    sp.record_failure(sp.entry(8, B))    # another state: counted apart
+    assert sp.counts(sp.entry(7, A)) == (2, 0) and sp.counts(sp.entry(7, B)) == (0, 1) and \
+        sp.counts(sp.entry(8, B)) == (1, 0)
     assert sp.scaled(7) == [(A, 1.0 / 3), (B, 0.25 / 101), (None, 4.0 / 101)]
     assert ScaledPriorities(_Fixed([(A, 2.0)]), gamma=3).scale(2.0, 1, 2) == 2.0 / 8
-    alone = ScaledPriorities(gamma=3)           # bookkeeping only
-    alone.record_success(1, A)
-    assert alone.counts(1, A) == (0, 1) and alone.scale(1.0, 0, 1) == 0.25
+    alone = ScaledPriorities(gamma=3)           # bookkeeping only: entries added by hand
+    alone.record_success(alone.add(1, A, 1.0))
+    assert alone.counts(alone.entry(1, A)) == (0, 1) and alone.scale(1.0, 0, 1) == 0.25
     with pytest.raises(ValueError, match="without a heuristic"):
-        alone.scaled(1)
+        alone.scaled(2)                         # a state it has no entries for
     with pytest.raises(ValueError, match="gamma"):
         ScaledPriorities(_Fixed([]), gamma=0.5)
-    assert ScaledPriorities(_Fixed([])).choose(0, np.random.default_rng(0)) is None
+    assert ScaledPriorities(_Fixed([])).choose(np.random.default_rng(0), 0) is None
 
 
 def test_choose_is_deterministic_and_proportional():
     C = SimpleNamespace(id=2)
     sp = ScaledPriorities(_Fixed([(A, 1.0), (B, 3.0), (C, 2.0), (None, 4.0)]))
-    sp.record_failure(0, C)              # C: 2 / 2 = 1
+    sp.record_failure(sp.entry(0, C))    # C: 2 / 2 = 1
 
     def draws(seed: int) -> list:
         rng = np.random.default_rng(seed)
-        return [sp.choose(0, rng) for _ in range(50)]
+        return [sp.choose(rng, 0) for _ in range(50)]
 
     assert draws(5) == draws(5) and draws(5) != draws(6)
     rng = np.random.default_rng(123)
     n = 40_000
-    picks = [sp.choose(0, rng)[0] for _ in range(n)]
+    picks = [sp.entries[sp.choose(rng, 0)][1] for _ in range(n)]
     weights = {0: 1.0, 1: 3.0, 2: 1.0, -1: 4.0}
     total = sum(weights.values())
     for key, w in weights.items():

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
+
+from tmpc.compiler.compile import compile_world
 
 EXTRA = """
     (fancy ?g - gripper ?c - cube ?s - surface :semantics
@@ -26,8 +27,8 @@ EXTRA = """
 
 @pytest.fixture(scope="module")
 def tabletop(tmp_path_factory):
-    from tmpc.compiler.tables import build_world
-    from tmpc.runtime.world import load_world
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.kernels import build_world
     d = tmp_path_factory.mktemp("tt")
     domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
     domain = domain.replace("  (:predicates\n", "  (:constants bench tray - surface)\n"
@@ -38,8 +39,8 @@ def tabletop(tmp_path_factory):
     (d / "scene.json").write_text((EXAMPLES / "tabletop" / "scene.json").read_text())
     (d / "t.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
                               'scene = "scene.json"\n')
-    world = load_world(d / "t.toml")
-    return world, build_world(world.scene, world.model, world.program.scope)
+    world = open_world(d / "t.toml")
+    return world, build_world(world.scene, compile_world(world).model, world.program.scope)
 
 
 CASES = [("reach", ("panda_hand_tcp", "red_cube")), ("over", ("panda_hand_tcp", "tray")),
@@ -50,7 +51,7 @@ CASES = [("reach", ("panda_hand_tcp", "red_cube")), ("over", ("panda_hand_tcp", 
 
 def _kernel(tabletop, name, and_mode="l2"):
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.jaxgen import Options, condition_kernel
+    from tmpc.compiler.kernels import Options, condition_kernel
     from tmpc.compiler.lower import Lowerer
     world, kw = tabletop
     scope = world.program.scope
@@ -63,10 +64,10 @@ def _states(world, n, seed):
     """Random configurations, with the red cube held by the hand in every other state."""
     from tmpc.compiler.state import grasp, initial_state
     rng = np.random.default_rng(seed)
-    st0 = initial_state(world.scene, world.model)
-    held = grasp(st0, world.model, "panda_hand_tcp", "red_cube", world.fk(st0.q))
+    st0 = initial_state(world.scene, compile_world(world).model)
+    held = grasp(st0, compile_world(world).model, "panda_hand_tcp", "red_cube", compile_world(world).fk(st0.q))
     for i in range(n):
-        q = rng.uniform(world.model.lower, world.model.upper)
+        q = rng.uniform(compile_world(world).model.lower, compile_world(world).model.upper)
         base = held if i % 2 else st0
         yield type(base)(q, base.poses, base.held, base.atoms)
 
@@ -74,7 +75,7 @@ def _states(world, n, seed):
 @pytest.mark.parametrize("and_mode", ["l2", "max"])
 @pytest.mark.parametrize("name, args", CASES)
 def test_kernel_matches_numpy_interpreter(tabletop, name, args, and_mode):
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import world_poses
     from tmpc.lang import ast as A
     from tmpc.runtime.evaluate import Evaluator
@@ -83,8 +84,8 @@ def test_kernel_matches_numpy_interpreter(tabletop, name, args, and_mode):
     ids = np.array([kw.entity(a) for a in args])
     call = A.Call(A.Name(name), tuple(A.ExprName(A.Name(a)) for a in args))
     for st in _states(world, 40, 1):
-        frames = world.fk(st.q)
-        ev = Evaluator(world.scene, world.model, st.q, frames, world_poses(st, world.model, frames),
+        frames = compile_world(world).fk(st.q)
+        ev = Evaluator(world.scene, compile_world(world).model, st.q, frames, world_poses(st, compile_world(world).model, frames),
                        world.program.scope)
         truth, dist = k(*state_inputs(kw, st), ids)
         assert float(dist) == pytest.approx(ev.distance(call, and_mode=and_mode), abs=1e-9)
@@ -94,7 +95,7 @@ def test_kernel_matches_numpy_interpreter(tabletop, name, args, and_mode):
 @pytest.mark.parametrize("name, args", CASES)
 def test_gradients_match_finite_differences(tabletop, name, args):
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.kernels import state_inputs
     jax = configured()
     world, kw = tabletop
     k = _kernel(tabletop, name)
@@ -114,13 +115,13 @@ def test_gradients_match_finite_differences(tabletop, name, args):
 def test_gradients_are_finite_at_zero_distance_and_touching_contact(tabletop):
     """At a satisfied state every distance is 0 and sqrt/norm sit at their singular point."""
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
     jax = configured()
     world, kw = tabletop
-    st = initial_state(world.scene, world.model)
+    st = initial_state(world.scene, compile_world(world).model)
     q, T, par = state_inputs(kw, st)
-    hand = np.asarray(world.fk(q).p[world.model.frame("panda_hand_tcp")])
+    hand = np.asarray(compile_world(world).fk(q).p[compile_world(world).model.frame("panda_hand_tcp")])
     T = T.copy()
     T[[o.name for o in world.scene.objects].index("red_cube"), :3, 3] = hand   # exact contact
     for name, args in [("touching", ("panda_hand_tcp", "red_cube")),
@@ -138,10 +139,10 @@ def test_gradients_are_finite_at_zero_distance_and_touching_contact(tabletop):
 
 def test_truth_at_constructed_states(tabletop):
     """Both outcomes of each predicate, at states built by hand."""
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
     world, kw = tabletop
-    st = initial_state(world.scene, world.model)
+    st = initial_state(world.scene, compile_world(world).model)
     q, T, par = state_inputs(kw, st)
     ids = lambda *names: np.array([kw.entity(n) for n in names])   # noqa: E731
     over = _kernel(tabletop, "over")
@@ -152,14 +153,14 @@ def test_truth_at_constructed_states(tabletop):
     assert bool(away(q, T, par, ids("panda_hand_tcp", "blue_cube"))[0])
     T2 = T.copy()
     T2[[o.name for o in world.scene.objects].index("blue_cube"), :3, 3] = \
-        np.asarray(world.fk(q).p[world.model.frame("panda_hand_tcp")]) + 0.03
+        np.asarray(compile_world(world).fk(q).p[compile_world(world).model.frame("panda_hand_tcp")]) + 0.03
     truth, dist = away(q, T2, par, ids("panda_hand_tcp", "blue_cube"))
     assert not bool(truth) and float(dist) == pytest.approx(0.1 - np.sqrt(3) * 0.03)
 
 
 def test_unknown_entity_or_joint_is_a_clear_error(tabletop):
     from tmpc.compiler import ir
-    from tmpc.compiler.jaxgen import KernelError, condition_kernel
+    from tmpc.compiler.kernels.emit import KernelError, condition_kernel
     _, kw = tabletop
     bad = ir.op("le", (ir.Joint("elbow_of_nobody"), ir.Const(1.0)), ir.BOOL)
     with pytest.raises(KernelError, match="elbow_of_nobody"):

@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from conftest import EXAMPLES
 
 SORT = EXAMPLES / "planet-sort" / "sort.toml"
@@ -17,8 +16,8 @@ SORT = EXAMPLES / "planet-sort" / "sort.toml"
 
 @pytest.fixture(scope="module")
 def solved():
-    from tmpc.runtime.plan_output import plan_document
-    from tmpc.runtime.run_command import plan_problem
+    from tmpc.runtime.plans import plan_document
+    from tmpc.runtime.solve import plan_problem
     problem, result, setup = plan_problem(SORT, seed=1, time_limit=60.0)
     doc = plan_document(problem, result, planner="unified", seed=1, input_path=str(SORT),
                         setup_seconds=setup)
@@ -26,8 +25,8 @@ def solved():
 
 
 def test_example_is_a_planet_run_config():
-    from tmpc.lang.configs import load_config
     from tmpc.lang.lua import load_lua_predicates
+    from tmpc.lang.world import load_config
     cfg = load_config(SORT)
     assert cfg.format == "planet-toml"
     assert cfg.scene.suffix == ".xml" and cfg.semantics.suffix == ".lua"
@@ -38,9 +37,9 @@ def test_example_is_a_planet_run_config():
 
 def test_lua_predicates_are_traced_not_evaluated_directly():
     from tmpc.compiler.lua_trace import trace_module
-    from tmpc.lang.configs import load_config
     from tmpc.lang.lua import load_lua_predicates
     from tmpc.lang.program import check_paths
+    from tmpc.lang.world import load_config
     cfg = load_config(SORT)
     checked = check_paths([cfg.domain, cfg.problem])
     assert checked.ok, checked.diagnostics
@@ -87,7 +86,7 @@ def test_plan_of_the_planet_example_validates(solved, tmp_path):
 
 def test_planet_legacy_output_validates(solved, tmp_path):
     """planet's bare state array (`--legacy-output planet`) is checked too, modes reconstructed."""
-    from tmpc.runtime.plan_output import legacy_states
+    from tmpc.runtime.plans import legacy_states
     from tmpc.runtime.validate import validate_plan
     problem, _, doc = solved
     states = legacy_states(doc, "planet")
@@ -106,9 +105,9 @@ TMIT_SORT = EXAMPLES / "tmit-star-sort" / "sort.json"
 
 def test_tmit_star_example_loads_and_traces():
     from tmpc.compiler.lua_trace import trace_module
-    from tmpc.lang.configs import load_config
     from tmpc.lang.lua import load_lua_predicates
     from tmpc.lang.program import check_paths
+    from tmpc.lang.world import load_config
     cfg = load_config(TMIT_SORT)
     assert cfg.format == "tmit-star-json" and dict(cfg.params)["min_steps"] == 4
     checked = check_paths([cfg.domain, cfg.problem])
@@ -126,8 +125,8 @@ def test_tmit_star_example_loads_and_traces():
 @pytest.mark.slow
 def test_run_solves_the_tmit_star_example(tmp_path):
     """A second world (the Panda on tmit-star's always-mobile base): compiled only under -m slow."""
-    from tmpc.runtime.plan_output import plan_document
-    from tmpc.runtime.run_command import plan_problem
+    from tmpc.runtime.plans import plan_document
+    from tmpc.runtime.solve import plan_problem
     from tmpc.runtime.validate import validate_plan
     problem, result, setup = plan_problem(TMIT_SORT, seed=0, time_limit=60.0)
     assert result.status == "solved", result.stats

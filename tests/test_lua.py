@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from tmpc.compiler import ir
+from tmpc.compiler.compile import compile_world
 from tmpc.compiler.lua_trace import LuaFallback, trace_module
 from tmpc.lang import SourceFile, parse_source
 from tmpc.lang.diagnostics import LuaError, render
@@ -73,9 +74,8 @@ BOX = ((-0.3, -0.25, 0.0), (0.35, 0.2, 0.05))
 
 def jax_distance(node, poses, boxes):
     """(truth, distance) of an IR condition by the JAX backend, arguments = objects 0..k-1."""
-    from tmpc.compiler.jaxgen import condition_kernel
-    from tmpc.compiler.tables import build_world
-    from tmpc.lang.scene import Box, Pose, Scene, SceneObject
+    from tmpc.compiler.kernels import build_world, condition_kernel
+    from tmpc.lang.world.scene import Box, Pose, Scene, SceneObject
     objs = tuple(SceneObject(f"o{i}", Pose(tuple(p[:3]), tuple(p[3:])),
                              support=Box(*b) if b is not None else None)
                  for i, (p, b) in enumerate(zip(poses, boxes)))
@@ -474,16 +474,17 @@ def test_untraceable_lua_predicate_points_at_its_function(tmp_path):
     """An untraceable predicate compiles to a `lua` node (kernels call its fallback, see
     tests/test_lua_fallback_kernels.py); its record names the Lua function's line."""
     import shutil
+
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.compile import CompiledProgram, external_predicates
-    from tmpc.runtime.world import load_world
     ex = tmp_path / "ps"
     shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "planet-sort", ex)
     lua = ex / "sort.lua"
     text = lua.read_text()
     head = text.index("\n", text.index("function at(")) + 1
     lua.write_text(text[:head] + "  if m.pz > 2.0 then return False() end\n" + text[head:])
-    world = load_world(ex / "sort.toml")
-    compiled = CompiledProgram(world.program, world.scene, world.model,
+    world = open_world(ex / "sort.toml")
+    compiled = CompiledProgram(world.program, world.scene, compile_world(world).model,
                                external=external_predicates(world.config.semantics, world.program))
     assert ir.show(compiled.predicate("at").body) == "(lua 'at' $arg0 $arg1)"
     bad = compiled.external["at"]

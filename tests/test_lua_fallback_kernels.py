@@ -8,8 +8,9 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
+
+from tmpc.compiler.compile import compile_world
 
 BRANCH = "  if m.pz > 2.0 then return False() end\n"
 
@@ -17,39 +18,39 @@ BRANCH = "  if m.pz > 2.0 then return False() end\n"
 @pytest.fixture(scope="module")
 def sort(tmp_path_factory):
     """planet-sort with `at` made untraceable (a branch on the state), and the original."""
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.compile import CompiledProgram, external_predicates
-    from tmpc.compiler.jaxgen import state_inputs
+    from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
     ex = tmp_path_factory.mktemp("lua-fb") / "ps"
     shutil.copytree(EXAMPLES / "planet-sort", ex)
     lua = ex / "sort.lua"
     text = lua.read_text()
     head = text.index("\n", text.index("function at(")) + 1
     lua.write_text(text[:head] + BRANCH + text[head:])
-    world = load_world(ex / "sort.toml")
-    fb = CompiledProgram(world.program, world.scene, world.model,
+    world = open_world(ex / "sort.toml")
+    fb = CompiledProgram(world.program, world.scene, compile_world(world).model,
                          external=external_predicates(world.config.semantics, world.program))
-    traced = CompiledProgram(world.program, world.scene, world.model,
+    traced = CompiledProgram(world.program, world.scene, compile_world(world).model,
                              external=external_predicates(str(EXAMPLES / "planet-sort" /
                                                               "sort.lua"), world.program))
-    q0, T, par = state_inputs(fb.world, initial_state(world.scene, world.model))
+    q0, T, par = state_inputs(fb.tables, initial_state(world.scene, compile_world(world).model))
     return world, fb, traced, (q0, T, par)
 
 
 def _direct(sort, q, T, par, args):
     """The fallback evaluated directly at the arguments' poses (from a value kernel)."""
     from tmpc.compiler import ir
-    from tmpc.compiler.jaxgen import value_kernel
+    from tmpc.compiler.kernels.emit import value_kernel
     world, fb, _, _ = sort
     poses = []
     for i in range(len(args)):
         pose = ir.op("pose", (ir.Arg(i),), ir.TRANSFORM)
         for part in ("position", "orientation"):
             node = ir.op(part, (pose,), ir.VEC3 if part == "position" else ir.QUAT)
-            poses.append(np.asarray(value_kernel(node, fb.world)(q, T, par, args)))
+            poses.append(np.asarray(value_kernel(node, fb.tables)(q, T, par, args)))
     poses = np.concatenate(poses).reshape(len(args), 7)
-    w = fb.world
+    w = fb.tables
     sup = [None if np.isnan(w.support_local[e]).any() else w.support_local[e] for e in args]
     return fb.external["at"].fallback(poses, sup, [w.names[e] for e in args])[0], poses
 
@@ -69,7 +70,7 @@ def test_kernel_equals_fallback_and_traced_original(sort):
     f, fo = fb.predicate("at"), traced.predicate("at")
     kernel, kt = fb.kernels(f)[0], traced.kernels(fo)[0]
     rng = np.random.default_rng(3)
-    lo, hi = np.asarray(world.model.lower), np.asarray(world.model.upper)
+    lo, hi = np.asarray(compile_world(world).model.lower), np.asarray(compile_world(world).model.upper)
     Q = rng.uniform(lo, hi, (12, len(lo)))
     for block in ("redblock", "greenblock"):
         args = fb.bind_args(f, ["panda_hand_tcp", block])
@@ -95,7 +96,7 @@ def test_kernel_equals_fallback_and_traced_original(sort):
 
 
 def world_id(fb, name):
-    return fb.world.entity(name)
+    return fb.tables.entity(name)
 
 
 def test_gradient_matches_finite_differences_and_traced(sort):
@@ -109,7 +110,7 @@ def test_gradient_matches_finite_differences_and_traced(sort):
     grad = jax.grad(dist)
     grad_t = jax.grad(lambda q: kt(q, T, par, args)[1])
     rng = np.random.default_rng(5)
-    lo, hi = np.asarray(world.model.lower), np.asarray(world.model.upper)
+    lo, hi = np.asarray(compile_world(world).model.lower), np.asarray(compile_world(world).model.upper)
     for q in rng.uniform(lo, hi, (3, len(lo))):
         g = np.asarray(grad(q))
         assert np.abs(g).max() > 0
@@ -123,12 +124,12 @@ def test_gradient_matches_finite_differences_and_traced(sort):
 
 
 def test_projection_reaches_states_where_it_holds(sort):
-    from tmpc.compiler.project import make_projector, uniform_starts
+    from tmpc.compiler.kernels import make_projector, uniform_starts
     world, fb, _, (q0, T, par) = sort
     f = fb.predicate("at")
     kernel = fb.kernels(f)[0]
     args = fb.bind_args(f, ["panda_hand_tcp", "redblock"])
-    lo, hi = np.asarray(world.model.lower), np.asarray(world.model.upper)
+    lo, hi = np.asarray(compile_world(world).model.lower), np.asarray(compile_world(world).model.upper)
     project = make_projector(kernel, lo, hi, iterations=30)
     Q0 = uniform_starts(np.random.default_rng(7), lo, hi, 24)
     Q, holds, d = (np.asarray(x) for x in project(Q0, T, par, args))
@@ -138,7 +139,8 @@ def test_projection_reaches_states_where_it_holds(sort):
 
 
 def test_artifact_skips_lua_kernels(sort, tmp_path):
-    from tmpc.compiler.artifact import build_artifact, exported_kernels
+    from tmpc.compiler.artifact import exported_kernels
+    from tmpc.compiler.export import build_artifact
     world = sort[0]
     manifest = build_artifact(world, tmp_path / "ps.tmpa")
     by = {(k["kind"], k["name"].lower()): k for k in manifest["kernels"]}
@@ -155,7 +157,7 @@ def test_throughput_fallback_vs_traced(sort, capsys):
     world, fb, traced, (q0, T, par) = sort
     f = fb.predicate("at")
     args = fb.bind_args(f, ["panda_hand_tcp", "redblock"])
-    lo, hi = np.asarray(world.model.lower), np.asarray(world.model.upper)
+    lo, hi = np.asarray(compile_world(world).model.lower), np.asarray(compile_world(world).model.upper)
     Q = np.random.default_rng(9).uniform(lo, hi, (2000, len(lo)))
     rates = {}
     for label, prog in (("fallback", fb), ("traced", traced)):

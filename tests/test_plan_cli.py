@@ -8,11 +8,11 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
+
 from tmpc.compiler.ground import ground
 from tmpc.lang.program import load_checked
-from tmpc.runtime.cli import main
+from tmpc.runtime.cli.main import main
 
 BLOCKS = [str(EXAMPLES / "blocksworld" / "domain.pddl"), str(EXAMPLES / "blocksworld" / "p01.pddl")]
 ONCE = """(define (domain once) (:requirements :strips)

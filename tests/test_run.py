@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tmpc.lang.diagnostics import TmpcError
-from tmpc.runtime.worlds import clutter_problem, clutter_scene
+from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 CLUTTER = ROOT / "examples" / "clutter" / "clutter.toml"
@@ -22,20 +22,20 @@ CLUTTER = ROOT / "examples" / "clutter" / "clutter.toml"
 @pytest.fixture(scope="session")
 def clutter_problem_1():
     """The bundled 1-stick clutter problem, compiled once for every test here."""
-    from tmpc.runtime.tmp_problem import TmpProblem
-    from tmpc.runtime.world import load_world
-    problem = TmpProblem(load_world(CLUTTER))
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.problem import TmpProblem
+    problem = TmpProblem(open_world(CLUTTER))
     problem.warm_up(np.random.default_rng(0))
     return problem
 
 
 def _solve(problem, seed, time_limit=60.0):
-    from tmpc.runtime.unified import UnifiedPlanner
+    from tmpc.runtime.planners import UnifiedPlanner
     return UnifiedPlanner(problem, seed=seed).solve(time_limit)
 
 
 def _validate(problem, result, tmp_path, seed=0):
-    from tmpc.runtime.plan_output import plan_document, write_json_atomic
+    from tmpc.runtime.plans import plan_document, write_json_atomic
     from tmpc.runtime.validate import validate_plan
     doc = plan_document(problem, result, planner="unified", seed=seed, input_path=str(CLUTTER),
                         setup_seconds=0.0)
@@ -72,7 +72,7 @@ def test_held_object_follows_the_gripper(clutter_problem_1, tmp_path):
     held = [s for s in doc["states"] if s["mode"]["held"]]
     assert held, "the stick is never held"
     frame = held[0]["mode"]["held"]["blue_stick_1"]
-    fk = clutter_problem_1.world.fk
+    fk = clutter_problem_1.compiled.fk
     model = clutter_problem_1.model
     offsets = []
     for s in held:
@@ -153,15 +153,14 @@ def test_unreachable_goal_is_reported_at_once(tmp_path):
 
 
 def test_unknown_planner(tmp_path):
-    r = _tmpc("run", CLUTTER, "--planner", "nope")
-    assert r.returncode == 1 and "E826" in r.stderr and "unified" in r.stderr, r.stderr
+    r = _tmpc("run", CLUTTER, "--planner", "nope")      # argparse's choices: the registry
+    assert r.returncode == 2 and "invalid choice" in r.stderr and "unified" in r.stderr, r.stderr
 
 
 def test_make_planner_rejects_bad_bias(clutter_problem_1):
-    from types import SimpleNamespace
-    from tmpc.runtime.run_command import make_planner
+    from tmpc.runtime.planners import make_planner
     with pytest.raises(TmpcError) as exc:
-        make_planner("unified", clutter_problem_1, 0, SimpleNamespace(heuristic_bias=1.5))
+        make_planner("unified", clutter_problem_1, 0, {"heuristic_bias": 1.5})
     assert exc.value.diagnostics[0].code == "E825"
 
 
@@ -229,7 +228,7 @@ def test_geometric_goal_is_projected_and_validated(tmp_path):
 
 
 def test_unwritable_plan_file_is_a_clear_error(tmp_path):
-    from tmpc.runtime.plan_output import write_json_atomic
+    from tmpc.runtime.plans import write_json_atomic
     with pytest.raises(TmpcError) as exc:
         write_json_atomic(tmp_path / "no-such-folder" / "plan.json", {"states": []})
     assert exc.value.diagnostics[0].code == "E828"

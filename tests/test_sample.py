@@ -8,8 +8,10 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import EXAMPLES
+
+from tmpc.compiler.compile import compile_world
+from tmpc.runtime.collision import collision_world
 
 TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
 
@@ -21,18 +23,18 @@ def run(*args, stdin=None):
 
 @pytest.fixture(scope="module")
 def world():
-    from tmpc.runtime.world import load_world
-    return load_world(TABLETOP)
+    from tmpc.compiler.artifact import open_world
+    return open_world(TABLETOP)
 
 
 def _holds(world, state_json, text):
     from tmpc.compiler.state import initial_state, state_from_json, world_poses
-    from tmpc.runtime.eval_command import parse_expr
+    from tmpc.lang.reader_formulas import parse_expr
     from tmpc.runtime.evaluate import Evaluator
-    st = state_from_json(state_json, world.scene, world.model,
-                         initial_state(world.scene, world.model))
-    frames = world.fk(st.q)
-    ev = Evaluator(world.scene, world.model, st.q, frames, world_poses(st, world.model, frames),
+    st = state_from_json(state_json, world.scene, compile_world(world).model,
+                         initial_state(world.scene, compile_world(world).model))
+    frames = compile_world(world).fk(st.q)
+    ev = Evaluator(world.scene, compile_world(world).model, st.q, frames, world_poses(st, compile_world(world).model, frames),
                    world.program.scope)
     return ev.value(parse_expr(text)[0]), st
 
@@ -46,7 +48,7 @@ def test_sampled_states_satisfy_and_are_valid(world, what, check):
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().splitlines()
     assert len(lines) == 4 and "starts; rejected" in r.stderr
-    collision = world.collision()
+    collision = collision_world(world, compile_world(world))
     for line in lines:
         holds, st = _holds(world, json.loads(line), check)
         assert holds
@@ -65,10 +67,10 @@ def test_unreachable_request_exits_3(tmp_path):
 
 
 @pytest.mark.parametrize("args, code", [
-    (["--predicate", "reach", "panda_hand_tcp"], "E582"),
-    (["--predicate", "free", "panda_hand_tcp"], "E582"),
-    (["--predicate", "reach", "red_cube", "panda_hand_tcp"], "E582"),
-    (["--action", "fly", "panda_hand_tcp"], "E582"),
+    (["--predicate", "reach", "panda_hand_tcp"], "E588"),
+    (["--predicate", "free", "panda_hand_tcp"], "E586"),
+    (["--predicate", "reach", "red_cube", "panda_hand_tcp"], "E591"),
+    (["--action", "fly", "panda_hand_tcp"], "E587"),
 ])
 def test_bad_requests(args, code):
     r = run(str(TABLETOP), *args)

@@ -10,14 +10,20 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import FIXTURES
+
 from tmpc.lang.diagnostics import SceneError, Severity
 from tmpc.lang.jsonpos import parse_json, pointer
-from tmpc.lang.scene import Box, Pose
-from tmpc.lang.scenes import (SCENE_LOADERS, LoadReport, box_to_object_frame, load_allowed_pairs,
-                              load_scene, quat_from_matrix)
 from tmpc.lang.source import SourceFile
+from tmpc.lang.world.loaders import (
+    SCENE_LOADERS,
+    LoadReport,
+    box_to_object_frame,
+    load_allowed_pairs,
+    load_scene,
+    quat_from_matrix,
+)
+from tmpc.lang.world.scene import Box, Pose
 
 SCENES = FIXTURES / "scenes"
 NATIVE = SCENES / "native" / "scene.json"
@@ -233,7 +239,7 @@ def test_planet_fixture_poses_against_hand_computed_quaternions():
 def test_quaternion_from_matrix_and_object_frame_boxes():
     for q in [(0, 0, 0, 1), (0, 0, S2, S2), (S2, 0, 0, S2), (0.5, 0.5, 0.5, 0.5),
               (0.1, -0.3, 0.5, math.sqrt(1 - 0.35))]:
-        from tmpc.lang.scenes import matrix_from_quat
+        from tmpc.lang.world.loaders import matrix_from_quat
         back = quat_from_matrix(matrix_from_quat(q))
         assert close(back, q) or close(back, tuple(-c for c in q))
     box, exact = box_to_object_frame((1.0, 0.0, 0.0, 0.0), (-1, -2, 0.5), (1, 2, 0.7))
@@ -558,7 +564,7 @@ def test_allowed_pairs_csv(tmp_path):
 
 
 def test_loaders_do_not_import_heavy_modules():
-    code = ("import sys, tmpc.lang.scenes, tmpc.lang.jsonpos\n"
+    code = ("import sys, tmpc.lang.world.loaders, tmpc.lang.jsonpos\n"
             "print(sorted(m for m in ('numpy', 'jax', 'z3', 'lxml', 'yourdfpy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from tmpc.lang.sexpr import SAtom, SList, parse_sexpr
+from tmpc.lang.sexpr import SList, parse_sexpr
 from tmpc.lang.source import SourceFile
 
 

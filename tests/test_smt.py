@@ -8,16 +8,14 @@ from collections import deque
 from pathlib import Path
 
 import pytest
-
 from conftest import EXAMPLES, FIXTURES, check
-from tmpc.compiler.ground import ground
-from tmpc.compiler.ground_formula import GeoLiteral
-from tmpc.compiler.smt import encode, smtlib_templates
-from tmpc.compiler.smt_bound import lmcut
-from tmpc.compiler.smt_mutex import mutex_groups, mutex_pairs
+
+from tmpc.compiler.ground import GeoLiteral, ground
+from tmpc.compiler.smt import encode, lmcut, smtlib_templates
+from tmpc.compiler.smt.mutex import mutex_groups, mutex_pairs
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile
-from tmpc.runtime.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
+from tmpc.runtime.planners.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
 
 
 def _problems() -> list[tuple[Path, Path]]:
@@ -447,7 +445,7 @@ def test_encoding_sizes_and_relevance():
 
 
 def _codes(text: str, budget: float = 5.0) -> list[tuple[str, str]]:
-    from tmpc.compiler.smt_checks import static_checks
+    from tmpc.compiler.smt import static_checks
     report = check(text)
     assert report.ok, report.diagnostics
     return [(d.code, d.message) for d in static_checks(report.programs[0], budget)]
@@ -470,7 +468,7 @@ def test_static_checks_find_dead_actions_and_unreachable_goals():
 
 
 def test_static_checks_report_unknown_past_the_budget():
-    from tmpc.compiler.smt_checks import static_checks
+    from tmpc.compiler.smt import static_checks
     prog = load_checked([EXAMPLES / "blocksworld" / "domain.pddl",
                          EXAMPLES / "blocksworld" / "p01.pddl"])
     (d,) = static_checks(prog, budget_s=0.0)
@@ -478,7 +476,7 @@ def test_static_checks_report_unknown_past_the_budget():
 
 
 def test_static_checks_quiet_on_the_examples():
-    from tmpc.compiler.smt_checks import static_checks
+    from tmpc.compiler.smt import static_checks
     for pair in PROBLEMS[:12]:
         assert static_checks(load_checked(list(pair))) == []
 

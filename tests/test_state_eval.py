@@ -7,20 +7,20 @@ import math
 import numpy as np
 import pytest
 
-from tmpc.lang.reader import Reader
 from tmpc.lang.diagnostics import DiagnosticSink, InputError
-from tmpc.lang.robot import load_urdf
-from tmpc.lang.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
+from tmpc.lang.reader import Reader
 from tmpc.lang.sexpr import parse_sexpr
 from tmpc.lang.source import SourceFile
+from tmpc.lang.world import load_urdf
+from tmpc.lang.world.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
 
 PANDA = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
 
 
 @pytest.fixture(scope="module")
 def world():
-    from tmpc.compiler.fk import build_robot_model, make_fk
     from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.robot import build_robot_model, make_fk
     jax = configured()
     tree = load_urdf(PANDA)
     spec = RobotSpec(urdf=tree.path, joint_values=(("panda_joint4", -1.5), ("panda_joint6", 1.5)))

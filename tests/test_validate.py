@@ -10,7 +10,6 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
 
 TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
@@ -20,9 +19,9 @@ PLANS = FIXTURES / "plans"
 
 @pytest.fixture(scope="module")
 def tabletop():
-    from tmpc.runtime.validate import Validator
-    from tmpc.runtime.world import load_world
-    return Validator(load_world(TABLETOP))
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate.core import Validator
+    return Validator(open_world(TABLETOP))
 
 
 @pytest.fixture
@@ -32,7 +31,7 @@ def plan():
 
 def validate(validator, data):
     from tmpc.lang.source import SourceFile
-    from tmpc.runtime.plan_file import parse_plan
+    from tmpc.runtime.plans import parse_plan
     return validator.validate(parse_plan(SourceFile("<plan>", json.dumps(data))))
 
 
@@ -59,9 +58,9 @@ def test_tabletop_fixture_is_valid(tabletop, plan):
 
 
 def test_clutter_pr2_fixture_is_valid():
+    from tmpc.compiler.artifact import open_world
     from tmpc.runtime.validate import validate_plan
-    from tmpc.runtime.world import load_world
-    rep = validate_plan(load_world(CLUTTER), str(PLANS / "clutter.json"))
+    rep = validate_plan(open_world(CLUTTER), str(PLANS / "clutter.json"))
     assert rep.valid, rep.text()
     assert rep.actions == 2 and rep.motion_checks > 20
 
@@ -230,7 +229,7 @@ def test_motion_through_the_bench_between_free_states(tabletop, plan):
     v = rep.violations[0]
     assert "collides with bench at t=" in v.message and 0.0 < v.details["t"] < 1.0
     # a coarse resolution steps over the bench: the same plan is then only short of its goal
-    from tmpc.runtime.validate import Validator
+    from tmpc.runtime.validate.core import Validator
     coarse = Validator(tabletop.world, resolution=10.0)
     assert {v.kind for v in validate(coarse, plan).violations} == {"goal"}
 
@@ -239,15 +238,16 @@ def test_penetration_tolerance(tmp_path, plan):
     """A cube resting 5 mm into the bench: a collision at tolerance 0, none at planet's
     0.021 m."""
     import shutil
-    from tmpc.runtime.validate import Validator
-    from tmpc.runtime.world import load_world
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate.core import Validator
     for f in ("domain.pddl", "problem.pddl", "tabletop.toml"):
         shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
     scene = json.loads((EXAMPLES / "tabletop" / "scene.json").read_text())
     cube = next(o for o in scene["objects"] if o["name"] == "red_cube")
     cube["pose"]["translation"][2] -= 0.005
     (tmp_path / "scene.json").write_text(json.dumps(scene))
-    world = load_world(tmp_path / "tabletop.toml")
+    world = open_world(tmp_path / "tabletop.toml")
     plan["states"][0]["object_poses"]["red_cube"]["translation"][2] -= 0.005
     del plan["states"][1:]
     plan["actions"] = []
@@ -263,8 +263,9 @@ def test_penetration_tolerance(tmp_path, plan):
 def test_objects_mounted_on_the_robot_ride_along(tmp_path, plan):
     """An object whose scene parent is a robot link is held by it from the start."""
     import shutil
-    from tmpc.runtime.validate import Validator
-    from tmpc.runtime.world import load_world
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate.core import Validator
     for f in ("domain.pddl", "problem.pddl", "tabletop.toml"):
         shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
     scene = json.loads((EXAMPLES / "tabletop" / "scene.json").read_text())
@@ -272,7 +273,7 @@ def test_objects_mounted_on_the_robot_ride_along(tmp_path, plan):
                              "pose": {"translation": [0, 0, 0.02], "rotation": [0, 0, 0, 1]},
                              "shape": {"type": "sphere", "radius": 0.01}})
     (tmp_path / "scene.json").write_text(json.dumps(scene))
-    v = Validator(load_world(tmp_path / "tabletop.toml"))
+    v = Validator(open_world(tmp_path / "tabletop.toml"))
     for s in plan["states"]:
         s["mode"]["held"]["tool"] = "panda_hand"
     rep = validate(v, plan)
@@ -301,8 +302,9 @@ return {
 def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
     """Legacy geometric predicates (no inline body): their Lua functions run at each state."""
     import shutil
-    from tmpc.runtime.validate import Validator
-    from tmpc.runtime.world import load_world
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate.core import Validator
     for f in ("problem.pddl", "scene.json"):
         shutil.copy(EXAMPLES / "tabletop" / f, tmp_path / f)
     domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
@@ -314,7 +316,7 @@ def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
     (tmp_path / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = '
                                        '"problem.pddl"\nscene = "scene.json"\nsemantics = '
                                        '"preds.lua"\n')
-    v = Validator(load_world(tmp_path / "run.toml"))
+    v = Validator(open_world(tmp_path / "run.toml"))
     rep = validate(v, plan)
     assert rep.valid, rep.text()
     assert rep.notes == ["Lua predicates evaluated directly: over, reach"]
@@ -343,7 +345,7 @@ def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
 ])
 def test_malformed_plans(data, code, where):
     from tmpc.lang.source import SourceFile
-    from tmpc.runtime.plan_file import PlanError, parse_plan
+    from tmpc.runtime.plans.read import PlanError, parse_plan
     src = SourceFile("p.json", json.dumps(data, indent=1))
     with pytest.raises(PlanError) as exc:
         parse_plan(src)
@@ -354,7 +356,7 @@ def test_malformed_plans(data, code, where):
 
 
 def test_action_forms():
-    from tmpc.runtime.plan_file import parse_ground
+    from tmpc.runtime.plans import parse_ground
     want = ("pick", ("g", "c", "s"))
     assert parse_ground("(pick g c s)") == want
     assert parse_ground("pick g c s") == want
@@ -395,13 +397,13 @@ def test_cli_valid_invalid_json_and_malformed(tmp_path, plan):
 
 def test_independent_of_the_planners_acceptance_code():
     code = ("import sys\n"
-            "from tmpc.runtime.world import load_world\n"
-            "from tmpc.runtime.validate import validate_plan\n"
-            f"r = validate_plan(load_world({str(TABLETOP)!r}), {str(PLANS / 'tabletop.json')!r})\n"
+            "from tmpc.compiler.artifact import open_world\n"
+            "from tmpc.runtime.validate.core import validate_plan\n"
+            f"r = validate_plan(open_world({str(TABLETOP)!r}), {str(PLANS / 'tabletop.json')!r})\n"
             "assert r.valid and r.kinematics in ('pinocchio', 'yourdfpy')\n"
             "bad = [m for m in sys.modules if m.split('.')[0] == 'jax' or m in\n"
-            "       ('tmpc.runtime.collision', 'tmpc.runtime.spheres', 'tmpc.compiler.ground',\n"
-            "        'tmpc.compiler.jaxgen', 'tmpc.compiler.project')]\n"
+            "       ('tmpc.runtime.collision.world', 'tmpc.runtime.collision.spheres', 'tmpc.compiler.ground.problem',\n"
+            "        'tmpc.compiler.kernels.emit', 'tmpc.compiler.kernels.project')]\n"
             "print(bad)\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
@@ -410,7 +412,8 @@ def test_independent_of_the_planners_acceptance_code():
 
 def test_yourdfpy_kinematics_agree_with_pinocchio(tabletop):
     import numpy as np
-    from tmpc.runtime.validate_kinematics import Kinematics, full_joint_values
+
+    from tmpc.runtime.validate import Kinematics, full_joint_values
     pytest.importorskip("pinocchio")
     other = Kinematics(tabletop.desc, "yourdfpy")
     rng = np.random.default_rng(0)

@@ -13,7 +13,6 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
 
 TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
@@ -23,8 +22,8 @@ PLANS = FIXTURES / "plans"
 
 @pytest.fixture(scope="module")
 def tabletop():
-    from tmpc.runtime.world import load_world
-    return load_world(TABLETOP, with_program=False)
+    from tmpc.compiler.artifact import open_world
+    return open_world(TABLETOP, with_program=False)
 
 
 @pytest.fixture(scope="module")
@@ -111,10 +110,10 @@ def test_script_parses(page, tmp_path):
 
 
 def test_pr2_clutter_page_is_small(tmp_path):
+    from tmpc.compiler.artifact import open_world
     from tmpc.runtime.viewer import write_html
-    from tmpc.runtime.world import load_world
     plan = json.loads((PLANS / "clutter.json").read_text())
-    size = write_html(load_world(CLUTTER, with_program=False), plan, tmp_path / "c.html")
+    size = write_html(open_world(CLUTTER, with_program=False), plan, tmp_path / "c.html")
     assert size < 5_000_000
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.html"]     # no temporary left
 
@@ -128,7 +127,7 @@ def test_bare_state_array_page(tabletop, plan, tmp_path):
 
 
 def test_unloadable_visual_meshes_fall_back_to_collision_geometry(tabletop, monkeypatch):
-    from tmpc.runtime import viewer_scene
+    from tmpc.runtime.viewer import scene as viewer_scene
     real = viewer_scene.load_visual
     monkeypatch.setattr(viewer_scene, "load_visual",
                         lambda path, scale: [] if str(path).endswith(".dae") else real(path, scale))
@@ -138,7 +137,8 @@ def test_unloadable_visual_meshes_fall_back_to_collision_geometry(tabletop, monk
 
 def test_decimation_keeps_the_shape():
     import trimesh
-    from tmpc.runtime.viewer import decimate
+
+    from tmpc.runtime.viewer.page import decimate
     m = trimesh.creation.icosphere(subdivisions=5, radius=0.1)        # 20480 faces
     v, f = decimate(np.asarray(m.vertices), np.asarray(m.faces), 600)
     assert 100 < len(f) <= 600
@@ -151,7 +151,8 @@ def test_decimation_keeps_the_shape():
 
 def test_png_has_the_requested_size_and_shows_the_scene(tabletop, plan, tmp_path):
     from PIL import Image
-    from tmpc.runtime.viewer import BACKGROUND, write_png
+
+    from tmpc.runtime.viewer.page import BACKGROUND, write_png
     out = tmp_path / "s.png"
     write_png(tabletop, plan, out, state_index=3, size=(320, 240))
     im = Image.open(out)

@@ -5,18 +5,20 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from conftest import EXAMPLES, check
-from tmpc.runtime.worlds import clutter_problem, clutter_scene, tabletop_scene
+
+from tmpc.compiler.compile import compile_world
+from tmpc.lang.world.generate import clutter_problem, clutter_scene, tabletop_scene
+from tmpc.runtime.collision import collision_world
 
 
 @pytest.mark.parametrize("n, red", [(1, False), (8, False), (8, True), (14, True)])
 def test_clutter_scene_loads_checks_and_starts_collision_free(tmp_path, n, red):
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
     scene_file = tmp_path / "scene.json"
     scene_file.write_text(json.dumps(clutter_scene(n, red)))
-    world = load_world(scene_file)
+    world = open_world(scene_file)
     names = {o.name for o in world.scene.objects}
     assert len(names) == 4 + n + (14 if red else 0)
     domain = (EXAMPLES / "clutter" / "domain.pddl").read_text()
@@ -25,8 +27,8 @@ def test_clutter_scene_loads_checks_and_starts_collision_free(tmp_path, n, red):
     objects = {o.name.key for o in report.programs[0].problem.objects}
     assert objects - {"l_gripper_tool_frame", "r_gripper_tool_frame"} == \
         {x.lower() for x in names}
-    st = initial_state(world.scene, world.model)
-    rep = world.collision().check(st.q, poses=st.poses)
+    st = initial_state(world.scene, compile_world(world).model)
+    rep = collision_world(world, compile_world(world)).check(st.q, poses=st.poses)
     assert rep.valid, rep.pairs
 
 
@@ -37,10 +39,10 @@ def test_bundled_examples_match_their_generators():
 
 
 def test_tabletop_starts_valid_with_the_hand_over_the_bench():
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
-    world = load_world(EXAMPLES / "tabletop" / "tabletop.toml")
-    st = initial_state(world.scene, world.model)
-    assert world.collision().check(st.q, poses=st.poses).valid
-    tcp = world.fk(st.q).p[world.model.frame("panda_hand_tcp")]
+    world = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    st = initial_state(world.scene, compile_world(world).model)
+    assert collision_world(world, compile_world(world)).check(st.q, poses=st.poses).valid
+    tcp = compile_world(world).fk(st.q).p[compile_world(world).model.frame("panda_hand_tcp")]
     assert 0.5 < float(tcp[2]) < 0.7

@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from tmpc.runtime.worlds import clutter_problem, clutter_scene
+from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
 
 def main() -> None:

@@ -14,8 +14,8 @@ import time
 import numpy as np
 import pytest
 
-from tmpc.lang.robot import load_urdf
-from tmpc.lang.scene import Pose, RobotSpec, Scene, SceneObject, Shape
+from tmpc.lang.world import load_urdf
+from tmpc.lang.world.scene import Pose, RobotSpec, Scene, SceneObject, Shape
 
 pytestmark = pytest.mark.bench
 
@@ -52,8 +52,8 @@ def _rate(fn, n: int, repeat: int = 3) -> float:
 
 
 def test_pr2_clutter_collision_throughput():
-    from tmpc.compiler.fk import build_robot_model
-    from tmpc.runtime.collision import CHUNK, CollisionWorld, PassStats, _jit_fk
+    from tmpc.compiler.robot import build_robot_model
+    from tmpc.runtime.collision.world import CHUNK, CollisionWorld, PassStats, _jit_fk
 
     tree = load_urdf(PR2)
     spec = RobotSpec(urdf=tree.path, mobile_base=True)

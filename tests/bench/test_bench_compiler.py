@@ -12,14 +12,15 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
+
+from tmpc.compiler.compile import compile_world
 
 pytestmark = pytest.mark.bench
 
 
 def _world(tmp_path, n=14, red=True):
-    from tmpc.runtime.worlds import clutter_problem, clutter_scene
+    from tmpc.lang.world.generate import clutter_problem, clutter_scene
     d = tmp_path / f"clutter{n}"
     d.mkdir(exist_ok=True)
     (d / "domain.pddl").write_text((EXAMPLES / "clutter" / "domain.pddl").read_text())
@@ -43,17 +44,15 @@ def _per_state(fn, arg, n, repeat=3):
 
 
 def test_kernel_throughput_and_projection(tmp_path):
-    from tmpc.compiler.compile import CompiledProgram
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.jaxgen import state_inputs
-    from tmpc.compiler.project import make_projector, uniform_starts
+    from tmpc.compiler.kernels import make_projector, state_inputs, uniform_starts
     from tmpc.compiler.state import initial_state
-    from tmpc.runtime.world import load_world
     jax = configured()
-    w = load_world(_world(tmp_path, 1, False))
-    cp = CompiledProgram(w.program, w.scene, w.model)
-    q, T, par = state_inputs(cp.world, initial_state(w.scene, w.model))
-    Q = np.random.default_rng(0).uniform(w.model.lower, w.model.upper, (4096, w.model.dof))
+    w = open_world(_world(tmp_path, 1, False))
+    cp = compile_world(w)
+    q, T, par = state_inputs(cp.tables, initial_state(w.scene, compile_world(w).model))
+    Q = np.random.default_rng(0).uniform(compile_world(w).model.lower, compile_world(w).model.upper, (4096, compile_world(w).model.dof))
     rows = []
     for label, name, args in [("PR2 gripper `at` (FK)", "at", ["r_gripper_tool_frame",
                                                                "blue_stick_1"]),
@@ -68,8 +67,8 @@ def test_kernel_throughput_and_projection(tmp_path):
         single = _per_state(lambda Qs: [single_fn(x) for x in Qs][-1], Q[:200], 200)
         proj = []
         for iters in (10, 30):
-            P = make_projector(k, w.model.lower, w.model.upper, iterations=iters)
-            Q0 = uniform_starts(np.random.default_rng(1), w.model.lower, w.model.upper, 4096)
+            P = make_projector(k, compile_world(w).model.lower, compile_world(w).model.upper, iterations=iters)
+            Q0 = uniform_starts(np.random.default_rng(1), compile_world(w).model.lower, compile_world(w).model.upper, 4096)
             P(Q0, T, par, ids)
             t = time.perf_counter()
             _, holds, _ = P(Q0, T, par, ids)
@@ -94,7 +93,7 @@ def test_compile_time_memory_and_artifact_size(tmp_path):
         out = tmp_path / "c.tmpa"
         t = time.perf_counter()
         r = subprocess.run([sys.executable, "-c",
-                            "import resource, sys; from tmpc.runtime.cli import main; "
+                            "import resource, sys; from tmpc.runtime.cli.main import main; "
                             f"rc = main(['compile', {str(run)!r}, '-o', {str(out)!r}]); "
                             "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); "
                             "sys.exit(rc)"], capture_output=True, text=True, env=env)

@@ -10,8 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from tmpc.lang.robot import load_urdf
-from tmpc.lang.scene import RobotSpec
+from tmpc.lang.world import RobotSpec, load_urdf
 
 pytestmark = pytest.mark.bench
 
@@ -35,8 +34,8 @@ def _rate(fn, arg, n_configs: int, repeat: int) -> float:
 
 
 def test_fk_batched_vs_per_call():
-    from tmpc.compiler.fk import build_robot_model, make_fk
     from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.robot import build_robot_model, make_fk
     jax = configured()
     rows = []
     for label, (uri, mobile) in ROBOTS.items():

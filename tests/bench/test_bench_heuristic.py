@@ -17,12 +17,12 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES
+
 from tmpc.compiler.ground import bits, ground
 from tmpc.lang.program import Workspace, check_parsed
 from tmpc.lang.source import SourceFile
-from tmpc.runtime.heuristic import _BIG, _GOAL, FFHeuristic, _Analysis, _rlevel, _witness
+from tmpc.runtime.planners.heuristic import _BIG, _GOAL, FFHeuristic, _Analysis, _rlevel, _witness
 
 pytestmark = pytest.mark.bench
 
@@ -136,7 +136,7 @@ def _rate(make, states, method: str, budget: float = 0.3) -> float:
 
 
 def _cases():
-    from tmpc.runtime.worlds import clutter_problem
+    from tmpc.lang.world.generate import clutter_problem
     dom = (EXAMPLES / "clutter" / "domain.pddl").read_text()
     for n in range(1, 15):
         yield f"clutter {n}", _load(dom + clutter_problem(n))

@@ -8,8 +8,9 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import EXAMPLES, FIXTURES
+
+from tmpc.compiler.compile import compile_world
 
 pytestmark = pytest.mark.bench
 
@@ -26,25 +27,24 @@ def _rate(fn, n, repeat=3):
 
 def test_traced_lua_vs_native_vs_direct():
     from tmpc.compiler import ir
+    from tmpc.compiler.artifact import open_world
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.jaxgen import condition_kernel, state_inputs
-    from tmpc.compiler.lua_trace import LuaFallback, trace_module
+    from tmpc.compiler.kernels import build_world, condition_kernel, state_inputs
     from tmpc.compiler.lower import builtin
+    from tmpc.compiler.lua_trace import LuaFallback, trace_module
     from tmpc.compiler.state import initial_state
-    from tmpc.compiler.tables import build_world
     from tmpc.lang.lua import load_lua_predicates
-    from tmpc.runtime.world import load_world
     jax = configured()
-    world = load_world(EXAMPLES / "tabletop" / "tabletop.toml")
-    kw = build_world(world.scene, world.model, world.program.scope)
+    world = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    kw = build_world(world.scene, compile_world(world).model, world.program.scope)
     module = load_lua_predicates(FIXTURES / "lua" / "planet_world.lua")
     traced = trace_module(module, {"close": 2}).traced["close"]
     pos = lambda i: builtin("position", [ir.Arg(i)])                    # noqa: E731
     native = builtin("<=", [builtin("distance", [pos(0), pos(1)]), ir.Const(0.25)])
-    q, T, par = state_inputs(kw, initial_state(world.scene, world.model))
+    q, T, par = state_inputs(kw, initial_state(world.scene, compile_world(world).model))
     ids = np.array([kw.entity("panda_hand_tcp"), kw.entity("red_cube")])
-    Q = np.random.default_rng(0).uniform(world.model.lower, world.model.upper,
-                                         (4096, world.model.dof))
+    Q = np.random.default_rng(0).uniform(compile_world(world).model.lower, compile_world(world).model.upper,
+                                         (4096, compile_world(world).model.dof))
     rates = {}
     for label, node in (("native", native), ("traced Lua", traced)):
         k = condition_kernel(node, kw)
@@ -53,11 +53,11 @@ def test_traced_lua_vs_native_vs_direct():
         rates[label] = (_rate(lambda: np.asarray(vg(Q)[0]), len(Q)), d_native)
     assert np.allclose(rates["native"][1], rates["traced Lua"][1], atol=1e-9)
     fb = LuaFallback(module, "close", ("object", "object"))
-    fk = jax.jit(world.fk)
+    fk = jax.jit(compile_world(world).fk)
     poses = []
     for qi in Q[:200]:
         f = fk(qi)
-        hand = np.concatenate([np.asarray(f.p[world.model.frame("panda_hand_tcp")]),
+        hand = np.concatenate([np.asarray(f.p[compile_world(world).model.frame("panda_hand_tcp")]),
                                [0, 0, 0, 1]])
         poses.append(np.stack([hand, np.concatenate([T[2, :3, 3], [0, 0, 0, 1]])]))
     direct = _rate(lambda: [fb(p) for p in poses], len(poses))

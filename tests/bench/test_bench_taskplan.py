@@ -12,7 +12,6 @@ import sys
 import time
 
 import pytest
-
 from conftest import EXAMPLES
 
 pytestmark = pytest.mark.bench
@@ -79,7 +78,7 @@ def blocks_problem(n: int, seed: int = 1) -> str:
 
 
 def _tasks(tmp_path):
-    from tmpc.runtime.worlds import clutter_problem
+    from tmpc.lang.world.generate import clutter_problem
     out = []
     (tmp_path / "blocks.pddl").write_text(BLOCKS)
     (tmp_path / "clutter.pddl").write_text(CLUTTER_STRIPS)
@@ -98,7 +97,7 @@ def _tasks(tmp_path):
 def _plan(domain, problem, **options):
     from tmpc.compiler.ground import ground
     from tmpc.lang.program import load_checked
-    from tmpc.runtime.taskplan import TaskPlanner, simulate
+    from tmpc.runtime.planners import TaskPlanner, simulate
     t0 = time.perf_counter()
     gp = ground(load_checked([domain, problem]))
     t1 = time.perf_counter()
@@ -180,8 +179,8 @@ def test_goal_modes_and_at_most_one(tmp_path):
 def test_clutter_14_first_plan_under_a_second(tmp_path):
     from tmpc.compiler.ground import ground
     from tmpc.lang.program import load_checked
-    from tmpc.runtime.taskplan import TaskPlanner
-    from tmpc.runtime.worlds import clutter_problem
+    from tmpc.lang.world.generate import clutter_problem
+    from tmpc.runtime.planners import TaskPlanner
     p = tmp_path / "clutter14.pddl"
     p.write_text(clutter_problem(14))
     gp = ground(load_checked([EXAMPLES / "clutter" / "domain.pddl", p]))

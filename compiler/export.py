@@ -1,0 +1,217 @@
+"""Writing an artifact (`tmpc compile -o x.tmpa`): the checked sources, the normalized scene with
+the robot and meshes by content hash, the lifted kernels serialized with ``jax.export``, and the
+SMT step templates; see :mod:`tmpc.compiler.artifact` for the format and for reading it."""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tmpc.compiler.artifact import FORMAT, MAGIC_MEMBER, digest, package_version
+from tmpc.compiler.cache import cache_root
+from tmpc.compiler.compile import compile_world
+from tmpc.compiler.ground import GroundingError, ground
+from tmpc.compiler.ir import show
+from tmpc.compiler.jaxcfg import configured
+from tmpc.compiler.kernels import has_lua_calls
+from tmpc.compiler.smt import smtlib_templates
+from tmpc.lang import ast as A
+from tmpc.lang.fileio import atomic_write_bytes
+from tmpc.lang.world import find_file, find_srdf, load_urdf
+
+
+@dataclass
+class _Members:
+    files: dict[str, bytes] = field(default_factory=dict)
+
+    def add(self, name: str, data: bytes) -> str:
+        self.files[name] = data
+        return name
+
+    def blob(self, data: bytes, suffix: str) -> str:
+        return self.add(f"blobs/{digest(data)[:32]}{suffix.lower()}", data)
+
+
+_FILENAME = re.compile(r'filename\s*=\s*"([^"]+)"')
+
+
+def _pack_urdf(members: _Members, urdf: Path) -> str:
+    """Store the URDF with each mesh reference rewritten to a blob (relative to src/)."""
+    text = urdf.read_text(encoding="utf-8")
+
+    def repl(m: re.Match) -> str:
+        found = find_file(m.group(1), urdf.parent)
+        if found is None:
+            return m.group(0)           # textures etc. that are absent: left as they were
+        name = members.blob(found.read_bytes(), found.suffix)
+        return f'filename="{Path(name).name}"'   # the URDF is a blob too: same directory
+
+    name = members.blob(_FILENAME.sub(repl, text).encode("utf-8"), ".urdf")
+    # the robot's SRDF (self-collision pairs to skip) travels beside it, where the collision
+    # checker looks for it (`<stem>.srdf`); without it, e.g. the PR2's finger tips collide
+    srdf = find_srdf(urdf)
+    if srdf is not None:
+        members.add(str(Path(name).with_suffix(".srdf")), srdf.read_bytes())
+    return name
+
+
+def _shape_json(members: _Members, shape) -> dict | None:
+    if shape is None:
+        return None
+    if shape.kind == "box":
+        return {"type": "box", "half_extents": list(shape.size)}
+    if shape.kind == "sphere":
+        return {"type": "sphere", "radius": shape.radius}
+    if shape.kind == "cylinder":
+        return {"type": "cylinder", "radius": shape.radius, "length": shape.length}
+    if shape.mesh is None or not Path(shape.mesh).is_file():
+        return None                      # an unresolved legacy mesh: no geometry in the artifact
+    name = members.blob(Path(shape.mesh).read_bytes(), Path(shape.mesh).suffix)
+    return {"type": "mesh", "file": "../" + name, "scale": list(shape.scale),
+            "convex": shape.convex}
+
+
+def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
+    """The scene as native JSON (docs/world.md), files replaced by blobs."""
+    robot = None
+    if scene.robot is not None:
+        r = scene.robot
+        robot = {"urdf": "../" + _pack_urdf(members, Path(r.urdf)), "name": r.name,
+                 "base_pose": {"translation": list(r.base_pose.translation),
+                               "rotation": list(r.base_pose.rotation)},
+                 "mobile_base": r.mobile_base, "joints": dict(r.joint_values)}
+        if r.controllable is not None:
+            robot["controllable"] = list(r.controllable)
+    objects = []
+    for o in scene.objects:
+        obj = {"name": o.name, "pose": {"translation": list(o.pose.translation),
+                                        "rotation": list(o.pose.rotation)},
+               "movable": o.movable}
+        shape = _shape_json(members, o.shape)
+        if shape is not None:
+            obj["shape"] = shape
+        if o.support is not None:
+            obj["support"] = {"lower": list(o.support.lower), "upper": list(o.support.upper)}
+        if o.parent is not None:
+            obj["parent"] = o.parent
+        objects.append(obj)
+    # Legacy blocklists name links some URDFs lack (their planners skipped those); the native
+    # scene format is strict, so only pairs naming real things are carried over.
+    known = {o.name.lower() for o in scene.objects}
+    if scene.robot is not None:
+        tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        known |= {scene.robot.name.lower()} | {lk.name.lower() for lk in tree.links} | \
+            {j.name.lower() for j in tree.joints}
+    pairs = [list(p) for p in (*scene.allowed_collisions, *allowed)
+             if p[0].lower() in known and p[1].lower() in known]
+    return {"format": "tmpc-scene/1", "bounds": [list(b) for b in scene.bounds],
+            "robot": robot, "objects": objects, "allowed_collisions": pairs}
+
+
+def _export_kernel(compiled, formula) -> bytes:
+    from jax import export  # imported when exporting: opening an artifact needs no JAX
+    jax = configured()
+    jnp = jax.numpy
+    kernel, _ = compiled.kernels(formula)
+    world = compiled.tables
+    n = world.model.dof if world.model is not None else 0
+    M, k = world.n_objects, len(formula.params)
+    b = export.symbolic_shape("b")[0]
+    batched = jax.jit(jax.vmap(kernel, in_axes=(0, None, None, 0)))
+    exp = export.export(batched)(
+        jax.ShapeDtypeStruct((b, n), jnp.float64), jax.ShapeDtypeStruct((M, 4, 4), jnp.float64),
+        jax.ShapeDtypeStruct((M,), jnp.int64), jax.ShapeDtypeStruct((b, k), jnp.int64))
+    return bytes(exp.serialize())
+
+
+def _cached_export(compiled, formula, kind: str, sources: str) -> bytes:
+    """Exported kernels are cached by (sources, formula, tmpc and JAX versions): recompiling an
+    unchanged problem reuses them (exporting traces and lowers every kernel, which dominates)."""
+    key = digest(json.dumps([sources, kind, formula.name, show(formula.body),
+                             package_version("tmpc"), package_version("jax"),
+                             repr(compiled.options)]).encode())
+    path = cache_root() / "exports" / f"{key}.jaxexport"
+    if path.is_file():
+        return path.read_bytes()
+    data = _export_kernel(compiled, formula)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, data)
+    except OSError:
+        pass          # a read-only cache: fine, just slower next time
+    return data
+
+
+def build_artifact(world, out: str | Path) -> dict:
+    """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``."""
+    members = _Members()
+    cfg, prog = world.config, world.program
+    src = {"domain": members.add("src/domain.pddl", Path(cfg.domain).read_bytes()),
+           "problem": members.add("src/problem.pddl", Path(cfg.problem).read_bytes())}
+    if cfg.semantics is not None:
+        src["semantics"] = members.add("src/predicates.lua", Path(cfg.semantics).read_bytes())
+    scene = normalized_scene(members, world.scene, world.allowed_pairs())
+    members.add("src/scene.json", json.dumps(scene, indent=1).encode())
+    run = ['[problem]', 'domain = "domain.pddl"', 'problem = "problem.pddl"',
+           'scene = "scene.json"']
+    if "semantics" in src:
+        run.append('semantics = "predicates.lua"')
+    members.add("src/run.toml", ("\n".join(run) + "\n").encode())
+    compiled = compile_world(world)
+    kernels = []
+    for decl in prog.domain.predicates:
+        if decl.kind is A.Kind.GEOMETRIC and (decl.semantics is not None or
+                                              decl.name.key in compiled.external):
+            kernels.append(("predicate", compiled.predicate(decl.name.text)))
+    for act in prog.domain.actions:
+        kernels.append(("action", compiled.action(act.name.text)))
+    entries = []
+    sources = digest(json.dumps({k: digest(v) for k, v in sorted(members.files.items())}).encode())
+    for kind, formula in kernels:
+        entry = {"kind": kind, "name": formula.name,
+                 "params": [p.name.text for p in formula.params]}
+        if has_lua_calls(formula.body):
+            entry.update(member=None, skipped="calls a Lua predicate on the host (tracing could "
+                         "not capture it); jax.export cannot serialize host callbacks, so the "
+                         "kernel is rebuilt from src/ when loaded")
+        else:
+            entry["member"] = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
+                                          _cached_export(compiled, formula, kind, sources))
+        entries.append(entry)
+    smt = _smt_section(members, prog)
+    model = compiled.model
+    manifest = {
+        "format": FORMAT, "tmpc": package_version("tmpc"), "jax": package_version("jax"),
+        "domain": prog.domain.name.text, "problem": prog.problem.name.text if prog.problem else None,
+        "options": {"tol": compiled.options.tol, "and_mode": compiled.options.and_mode},
+        "layout": {"q": list(model.q_names) if model else [],
+                   "lower": [float(v) for v in model.lower] if model else [],
+                   "upper": [float(v) for v in model.upper] if model else [],
+                   "entities": list(compiled.tables.names)},
+        "kernels": entries,
+        "smt": smt,
+        "members": {name: digest(data) for name, data in sorted(members.files.items())},
+    }
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr(MAGIC_MEMBER, json.dumps(manifest, indent=1))
+        for name, data in sorted(members.files.items()):
+            z.writestr(name, data)
+    atomic_write_bytes(out, buf.getvalue())
+    return manifest
+
+
+def _smt_section(members: _Members, prog) -> dict:
+    """The task planner's step encoding as SMT-LIB2 templates (compiler/smt/encode.py, geometric mode:
+    blocker variables included), one member per template; a problem too large to ground says why
+    instead of failing the artifact."""
+    try:
+        templates = smtlib_templates(ground(prog), geometric=True)
+    except GroundingError as exc:
+        return {"templates": None, "skipped": exc.diagnostics[0].message}
+    return {"templates": {name: members.add(f"smt/{name}.smt2", text.encode("utf-8"))
+                          for name, text in sorted(templates.items())}}

@@ -1,0 +1,95 @@
+"""Projection: from batches of start configurations, find configurations where a condition holds.
+
+Minimizes the condition's unsatisfaction distance ``D(q)`` over the robot configuration inside its
+bounds, all starts at once (``vmap``), for a fixed number of iterations (one jitted loop). Each
+iteration takes the Newton step toward ``D = 0`` of the linearized distance (the minimum-norm
+``dq`` with ``D + grad(D) . dq = 0``, i.e. ``dq = -D grad(D) / |grad(D)|^2``) over the coordinates
+not pinned at a bound, scaled by ``step`` and clipped into the joint bounds: for a distance built from comparisons this is a Gauss-Newton
+step on the violated constraints, which converges in a few iterations where a plain gradient
+step needs a hundred (measured in ``tests/bench``). A start is *converged* when its truth test
+holds; callers add their own acceptance (collision-free) and report why the rest were rejected.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tmpc.compiler.jaxcfg import configured
+
+
+@dataclass(frozen=True)
+class ProjectionResult:
+    q: np.ndarray          # (B, n) final configurations
+    holds: np.ndarray      # (B,) truth test at q
+    distance: np.ndarray   # (B,) distance at q
+    iterations: int
+
+
+def make_projector(kernel, lower, upper, iterations: int = 40, step: float = 1.0,
+                   eps: float = 1e-12):
+    """A jitted ``project(Q0, obj_T, obj_parent, args) -> (Q, holds, distance)`` for ``kernel``
+    (``kernel(q, obj_T, obj_parent, args) -> (truth, distance)``)."""
+    jax = configured()
+    jnp = jax.numpy
+    lo, hi = jnp.asarray(lower), jnp.asarray(upper)
+
+    def dist(q, T, par, args):
+        return kernel(q, T, par, args)[1]
+
+    value_and_grad = jax.value_and_grad(dist)
+
+    def one(q0, T, par, args):
+        def body(_, q):
+            d, g = value_and_grad(q, T, par, args)
+            # Active set: a coordinate at a bound whose step would leave the box is frozen, so
+            # the step is spent on the coordinates that can move (clipping alone stalls; with
+            # it PR2 `at` converges 94% instead of 62% in 10 iterations, measured).
+            stuck = ((q <= lo + 1e-9) & (g > 0)) | ((q >= hi - 1e-9) & (g < 0))
+            g = jnp.where(stuck, 0.0, g)
+            gg = (g * g).sum()
+            dq = jnp.where(gg > eps, -d * g / jnp.where(gg > eps, gg, 1.0), 0.0)
+            return jnp.clip(q + step * dq, lo, hi)
+
+        q = jax.lax.fori_loop(0, iterations, body, jnp.clip(q0, lo, hi))
+        truth, d = kernel(q, T, par, args)
+        return q, truth, d
+
+    batched = jax.vmap(one, in_axes=(0, None, None, None))
+    return jax.jit(batched)
+
+
+def make_gn_projector(kernel, residuals, lower, upper, iterations: int = 10,
+                      damping: float = 1e-6):
+    """Gauss-Newton on the residual vector ``r`` (``|r| = D``): ``dq = -J^T (J J^T + lambda I)^-1
+    r``, the minimum-norm step that zeroes the linearized violations, clipped into the bounds."""
+    jax = configured()
+    jnp = jax.numpy
+    lo, hi = jnp.asarray(lower), jnp.asarray(upper)
+    jac = jax.jacfwd(residuals)
+
+    def one(q0, T, par, args):
+        def body(_, q):
+            r = residuals(q, T, par, args)
+            J = jac(q, T, par, args)
+            A = J @ J.T + damping * jnp.eye(r.shape[0])
+            dq = -J.T @ jnp.linalg.solve(A, r)
+            return jnp.clip(q + dq, lo, hi)
+
+        q = jax.lax.fori_loop(0, iterations, body, jnp.clip(q0, lo, hi))
+        truth, d = kernel(q, T, par, args)
+        return q, truth, d
+
+    return jax.jit(jax.vmap(one, in_axes=(0, None, None, None)))
+
+
+def project(projector, Q0, obj_T, obj_parent, args, iterations: int) -> ProjectionResult:
+    Q, holds, d = projector(np.asarray(Q0, dtype=np.float64), obj_T, obj_parent, args)
+    return ProjectionResult(np.asarray(Q), np.asarray(holds), np.asarray(d), iterations)
+
+
+def uniform_starts(rng: np.random.Generator, lower, upper, n: int) -> np.ndarray:
+    """``n`` configurations uniform in the bounds (every random choice comes from ``rng``)."""
+    lower, upper = np.asarray(lower), np.asarray(upper)
+    return rng.uniform(lower, upper, (n, len(lower)))

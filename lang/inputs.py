@@ -1,0 +1,79 @@
+"""An input file loaded and checked: :class:`World` = the scene, the run configuration (if the
+input is one) and its checked program. The compiler turns it into a
+:class:`~tmpc.compiler.compile.CompiledProgram` (``compile_world``); a compiled artifact is opened
+by ``tmpc.compiler.artifact.open_world``, which extracts it and loads the extraction here."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tmpc.lang.diagnostics import CheckError, InputError, SceneError, error
+from tmpc.lang.program import check_paths
+from tmpc.lang.world import (
+    LoadReport,
+    RunConfig,
+    Scene,
+    is_run_config,
+    load_allowed_pairs,
+    load_config,
+    load_scene,
+)
+
+
+@dataclass(eq=False)
+class World:
+    """What an input describes. ``program`` is the :class:`~tmpc.lang.checker.CheckedProgram` of
+    the configuration's domain and problem (None for a bare scene, or when not asked for)."""
+
+    scene: Scene
+    config: RunConfig | None = None
+    program: object | None = None            # CheckedProgram
+    files: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    #: (path, manifest) when loaded from a compiled artifact
+    artifact: tuple | None = None
+
+    def allowed_pairs(self) -> tuple[tuple[str, str], ...]:
+        if self.config is not None and self.config.allowed_collisions is not None:
+            return load_allowed_pairs(self.config.allowed_collisions)
+        return ()
+
+
+def load_world(path: str | Path, with_program: bool = True) -> World:
+    """A scene file (native/tmit-star JSON, planet XML) or a run configuration (TOML, tmit-star
+    spec JSON). A configuration's domain and problem are checked too. Compiled artifacts are the
+    compiler's to open (``tmpc.compiler.artifact.open_world``)."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(error("E010", f"no such file: {path}", None))
+    if path.suffix.lower() in (".pddl", ".tmpc"):
+        raise InputError(error(
+            "E827", f"{path} is a PDDL file; this command needs a run configuration (or a "
+            "scene) that names the domain, problem and scene", None,
+            "write a manifest like examples/clutter/clutter.toml ([problem] domain, problem, "
+            "scene), or give --domain/--problem/--scene to `tmpc compile`; for task planning "
+            "alone: `tmpc plan DOMAIN PROBLEM`"))
+    report = LoadReport()
+    config = None
+    # $TMPC_MESH_PATH also serves object meshes (tmit-star's repository lacks its .obj files)
+    fallback = [d for d in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep) if d]
+    if is_run_config(path):
+        config = load_config(path, report=report)
+        scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
+                           strict_meshes=False, mesh_fallback_dirs=fallback)
+    else:
+        scene = load_scene(path, report=report, mesh_fallback_dirs=fallback)
+    world = World(scene, config, files=dict(report.files), warnings=list(report.warnings))
+    if config is not None and with_program:
+        checked = check_paths([config.domain, config.problem])
+        world.files.update(checked.workspace.files)
+        if not checked.ok:
+            raise CheckError([d for d in checked.diagnostics if d.is_error],
+                             checked.workspace.files)
+        world.program = checked.programs[0] if checked.programs else None
+    return world
+
+
+__all__ = ["World", "load_world", "SceneError"]

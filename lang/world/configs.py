@@ -1,0 +1,440 @@
+"""Run configurations: native manifest TOML, planet run TOML, tmit-star problem spec -> RunConfig.
+
+:data:`CONFIG_LOADERS` maps a format name (the value of ``RunConfig.format``) to its loader;
+:func:`load_config` detects the format and returns a :class:`~tmpc.lang.world.scene.RunConfig` whose
+paths are absolute and exist (``output`` need not). Problems are
+:class:`~tmpc.lang.diagnostics.SceneError` diagnostics pointing at the key's line; keys the legacy
+tools did not read (``max_iterations``, ``perf_file``) are accepted, unknown legacy keys are
+warnings (W500), unknown native keys are errors (E504). See docs/world.md.
+
+Relative paths: native manifest -> the manifest's directory; legacy -> the config's directory or
+any of its ancestors, the first that exists (planet and tmit-star ran from their repo roots).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Callable, Iterable, NoReturn
+
+from tmpc.lang.diagnostics import SceneError, error
+from tmpc.lang.jsonpos import parse_json
+from tmpc.lang.source import SourceFile, Span
+from tmpc.lang.world.loaders import (
+    JsonReader,
+    LoadReport,
+    Reader,
+    did_you_mean,
+    display_name,
+    find_file,
+    join_hints,
+    read_source,
+    search_dirs,
+    tried_text,
+)
+from tmpc.lang.world.scene import LEGACY_TOLERANCES, RunConfig
+
+__all__ = ["CONFIG_LOADERS", "PLANNER_PARAMS", "PLANET_PARAMS", "detect_config_format",
+           "load_config", "load_planet_params"]
+
+#: planner parameters a native manifest may set under [planner]: name -> (type, meaning).
+#: Planners read the ones they use; planet's come from its params TOML, tmit-star's from the spec.
+PLANNER_PARAMS: dict[str, tuple[type, str]] = {
+    "coin_bias": (float, "probability of a heuristic (vs uniform) sample (planet: 0.3)"),
+    "gd_tries": (int, "projection attempts per sample (planet: 3)"),
+    "max_samples": (int, "samples per sampler call (planet: 10)"),
+    "success_scale": (float, "weight of past successes in transition priority (planet: 100)"),
+    "goal_weight": (float, "priority weight of the goal entry (planet: 4)"),
+    "min_steps": (int, "shortest task plan tried (tmit-star: 0)"),
+    "max_steps": (int, "longest task plan tried (tmit-star: 100)"),
+    "batch_size": (int, "samples per mode per batch (tmit-star: 50)"),
+    "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
+    "collision_tolerance": (float, "penetration depth (m) not counted as a collision (planet: "
+                                   f"{LEGACY_TOLERANCES['planet-toml']}, tmit-star: "
+                                   f"{LEGACY_TOLERANCES['tmit-star-json']})"),
+}
+#: keys of planet's params TOML (its defaults are in PLANNER_PARAMS)
+PLANET_PARAMS = ("coin_bias", "gd_tries", "max_samples", "success_scale", "goal_weight")
+
+
+# --------------------------------------------------------------------------------------------
+# TOML with key positions (tomllib keeps none; simple line scanning is enough for configs)
+
+_KEY_LINE = re.compile(r"""\s*("(?:[^"\\]|\\.)*"|'[^']*'|[A-Za-z0-9_.-]+)\s*=\s*""")
+_HEADER = re.compile(r"\s*\[\s*([^\[\]]+?)\s*\]\s*(?:#.*)?$")
+
+
+def toml_positions(source: SourceFile) -> tuple[dict[str, Span], dict[str, Span]]:
+    """(value spans, key spans) by dotted key (``planner.coin_bias``); table headers are in the
+    key spans under the table's name. First line of a multi-line value only."""
+    values: dict[str, Span] = {}
+    keys: dict[str, Span] = {}
+    table, offset = "", 0
+    for line in source.text.split("\n"):
+        start, offset = offset, offset + len(line) + 1
+        h = _HEADER.match(line)
+        if h and not line.lstrip().startswith("[["):
+            table = h.group(1).replace(" ", "")
+            keys.setdefault(table, Span(source.path, start + line.index("["),
+                                        start + len(line.rstrip())))
+            continue
+        m = _KEY_LINE.match(line)
+        if not m or line.lstrip().startswith("#"):
+            continue
+        key = m.group(1).strip("\"'")
+        full = f"{table}.{key}" if table else key
+        ks = start + m.start(1)
+        keys.setdefault(full, Span(source.path, ks, start + m.end(1)))
+        vs, ve = start + m.end(), start + len(_strip_comment(line).rstrip())
+        values.setdefault(full, Span(source.path, vs, max(ve, vs + 1)))
+    return values, keys
+
+
+def _strip_comment(line: str) -> str:
+    quote = None
+    for i, ch in enumerate(line):
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            return line[:i]
+    return line
+
+
+class TomlReader(Reader):
+    """Typed access to a TOML document; errors point at the key's value (or its table)."""
+
+    def __init__(self, source: SourceFile, report: LoadReport, legacy: bool):
+        super().__init__(source, report, legacy)
+        self.data = self._parse()
+        self.values, self.keys = toml_positions(source)
+
+    def _parse(self) -> dict[str, Any]:
+        try:
+            return tomllib.loads(self.source.text)
+        except tomllib.TOMLDecodeError as exc:
+            msg = str(exc)
+            m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
+            pos = self.source.offset(int(m.group(1)), int(m.group(2))) if m \
+                else len(self.source.text)
+            what = re.sub(r"\s*\(at [^)]*\)$", "", msg)
+            raise SceneError(error(
+                "E502", f"{self.name}: malformed TOML: {what}", Span(self.source.path, pos, pos + 1),
+                'a line is key = value; strings need quotes: scene = "scene.json"'),
+                self.report.files) from None
+
+    def span(self, key: str) -> Span:
+        if key in self.values:
+            return self.values[key]
+        table = key.rsplit(".", 1)[0] if "." in key else ""
+        return self.keys.get(table) or Span(self.source.path, 0, 1)
+
+    def key_span(self, key: str) -> Span:
+        return self.keys.get(key) or self.span(key)
+
+    def table(self, name: str, value: Any) -> dict:
+        if not isinstance(value, dict):
+            self.fail("E506", self.span(name), f"[{name}] must be a table, found "
+                      f"{type(value).__name__}", f"write it as a [{name}] section")
+        return value
+
+    def check_keys(self, prefix: str, data: dict, required: Iterable[str],
+                   optional: Iterable[str]) -> None:
+        required, optional = tuple(required), tuple(optional)
+        known = required + optional
+        where = f"[{prefix}]" if prefix else "the top level"
+        for key in data:
+            if key in known:
+                continue
+            full = f"{prefix}.{key}" if prefix else key
+            hint = join_hints(did_you_mean(key, known), "known keys: " + ", ".join(known))
+            if self.legacy:
+                self.warn("W500", self.key_span(full), f"{where}: unknown key \"{key}\" (ignored)",
+                          hint)
+            else:
+                self.record("E504", self.key_span(full), f"{where}: unknown key \"{key}\"", hint)
+        for key in required:
+            if key not in data:
+                self.record("E505", self.span(f"{prefix}.{key}" if prefix else key),
+                            f"{where}: missing \"{key}\"", f"add {key} = \"...\"")
+
+    def expect(self, key: str, value: Any, typ: type) -> Any:
+        ok = isinstance(value, typ) and not isinstance(value, bool) if typ is not bool \
+            else isinstance(value, bool)
+        if typ is float and isinstance(value, int) and not isinstance(value, bool):
+            return float(value)
+        if not ok:
+            names = {str: "a string", float: "a number", int: "a whole number", bool: "true or false"}
+            self.fail("E506", self.span(key), f"{key}: expected {names[typ]}, found "
+                      f"{type(value).__name__} {value!r}")
+        return value
+
+
+# --------------------------------------------------------------------------------------------
+# Paths
+
+
+def _path(r: Reader, span: Span, key: str, raw: Any, legacy: bool, what: str,
+          want_dir: bool = False) -> Path:
+    """An input file (or directory) named in a config: must exist."""
+    if not isinstance(raw, str) or not raw.strip():
+        r.fail("E506", span, f"{key}: expected a path string, found {raw!r}")
+    found, tried = find_file(raw, search_dirs(r.directory, legacy), want_dir=want_dir)
+    if found is None:
+        r.fail("E515", span, f"{key}: {what} \"{raw}\" not found", join_hints(
+            tried_text(tried), "relative paths are relative to this file's directory"
+            + (" or one of its parents" if legacy else "")))
+    return found
+
+
+def _output(r: Reader, span: Span, key: str, raw: Any) -> Path:
+    if not isinstance(raw, str) or not raw.strip():
+        r.fail("E506", span, f"{key}: expected a path string, found {raw!r}")
+    return Path(os.path.normpath(r.directory / os.path.expanduser(raw)))
+
+
+def _finish(r: Reader, build: Callable[[], RunConfig]) -> RunConfig:
+    cfg = None
+    with r.part():
+        cfg = build()
+    r.finish()
+    assert cfg is not None
+    return cfg
+
+
+# --------------------------------------------------------------------------------------------
+# Native manifest TOML
+
+_PROBLEM_KEYS = (("domain", "problem", "scene"),
+                 ("semantics", "allowed_collisions", "mesh_dir"))
+
+
+def _load_native(source: SourceFile, report: LoadReport) -> RunConfig:
+    r = TomlReader(source, report, legacy=False)
+    return _finish(r, lambda: _native(r))
+
+
+def _native(r: TomlReader) -> RunConfig:
+    data = r.data
+    r.check_keys("", data, ("problem",), ("planner",))
+    prob = r.table("problem", data.get("problem"))
+    r.check_keys("problem", prob, *_PROBLEM_KEYS)
+    r.finish()
+    paths: dict[str, Path] = {}
+    what = {"domain": "PDDL domain", "problem": "PDDL problem", "scene": "scene file",
+            "semantics": "Lua predicate file", "allowed_collisions": "allowed-collision CSV",
+            "mesh_dir": "mesh directory"}
+    for key in (*_PROBLEM_KEYS[0], *_PROBLEM_KEYS[1]):
+        if key in prob:
+            with r.part():
+                paths[key] = _path(r, r.span(f"problem.{key}"), f"problem.{key}", prob[key],
+                                   False, what[key], want_dir=key == "mesh_dir")
+    planner = r.table("planner", data.get("planner", {}))
+    r.check_keys("planner", planner, (), ("time_limit", "output", *PLANNER_PARAMS))
+    params: list[tuple[str, object]] = []
+    time_limit = output = None
+    for key, value in planner.items():
+        with r.part():
+            full = f"planner.{key}"
+            if key == "time_limit":
+                time_limit = _positive(r, full, r.expect(full, value, float))
+            elif key == "output":
+                output = _output(r, r.span(full), full, value)
+            elif key in PLANNER_PARAMS:
+                params.append((key, _param(r, full, value, PLANNER_PARAMS[key][0])))
+    r.finish()
+    return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
+                     paths.get("semantics"), paths.get("allowed_collisions"),
+                     paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml")
+
+
+def _positive(r: Reader, key: str, x: float) -> float:
+    if x <= 0:
+        r.fail("E512", r.span(key), f"{key}: must be positive, found {x:g}")  # type: ignore[attr-defined]
+    return x
+
+
+def _param(r: TomlReader, key: str, value: Any, typ: type) -> object:
+    v = r.expect(key, value, typ)
+    if v < 0:
+        r.fail("E512", r.span(key), f"{key}: must not be negative, found {v}")
+    return v
+
+
+# --------------------------------------------------------------------------------------------
+# planet run TOML (FACTS 3.1, 3.2)
+
+_PLANET_REQUIRED = ("domain", "problem", "scene")
+_PLANET_OPTIONAL = ("objdir", "semantics", "output", "perf_file", "params", "blacklist", "timeout")
+
+
+def _load_planet(source: SourceFile, report: LoadReport) -> RunConfig:
+    r = TomlReader(source, report, legacy=True)
+    return _finish(r, lambda: _planet(r))
+
+
+def _planet(r: TomlReader) -> RunConfig:
+    data = r.data
+    r.check_keys("", data, _PLANET_REQUIRED, _PLANET_OPTIONAL)
+    r.finish()
+    what = {"domain": "PDDL domain", "problem": "PDDL problem", "scene": "scene file",
+            "semantics": "Lua predicate file", "blacklist": "collision blacklist CSV",
+            "objdir": "mesh directory (objdir)", "params": "params file"}
+    paths: dict[str, Path] = {}
+    for key in what:
+        if key in data:
+            with r.part():
+                paths[key] = _path(r, r.span(key), key, data[key], True, what[key],
+                                   want_dir=key == "objdir")
+    time_limit = output = None
+    with r.part():
+        if "timeout" in data:
+            time_limit = _positive(r, "timeout", r.expect("timeout", data["timeout"], float))
+        if "output" in data:
+            output = _output(r, r.span("output"), "output", data["output"])
+        if "perf_file" in data:        # planet appended timings here; tmpc reports its own
+            r.expect("perf_file", data["perf_file"], str)
+    r.finish()
+    params = load_planet_params(paths["params"], r.report) if "params" in paths else ()
+    return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
+                     paths.get("semantics"), paths.get("blacklist"), paths.get("objdir"), params,
+                     time_limit, output, "planet-toml")
+
+
+def load_planet_params(path: str | Path, report: LoadReport | None = None
+                       ) -> tuple[tuple[str, object], ...]:
+    """planet's params TOML -> (name, value) pairs in file order (unknown keys: W500)."""
+    r = TomlReader(read_source(path, "params"), report or LoadReport(), legacy=True)
+
+    def build() -> tuple[tuple[str, object], ...]:
+        r.check_keys("", r.data, (), PLANET_PARAMS)
+        out = []
+        for key, value in r.data.items():
+            if key in PLANET_PARAMS:
+                with r.part():
+                    out.append((key, _param(r, key, value, PLANNER_PARAMS[key][0])))
+        return tuple(out)
+
+    params: tuple = ()
+    with r.part():
+        params = build()
+    r.finish()
+    return params
+
+
+# --------------------------------------------------------------------------------------------
+# tmit-star problem spec JSON (FACTS 3.3)
+
+_TMIT_PATHS = {"domain": "PDDL domain", "problem": "PDDL problem", "initial_scene": "scene file",
+               "predicates": "Lua predicate file", "collision_blocklist": "collision blocklist CSV"}
+
+
+def _load_tmit(source: SourceFile, report: LoadReport) -> RunConfig:
+    r = JsonReader(parse_json(source), report, legacy=True)
+    return _finish(r, lambda: _tmit(r))
+
+
+def _tmit(r: JsonReader) -> RunConfig:
+    v = r.obj("", r.doc.value, ("domain", "problem", "initial_scene"),
+              ("predicates", "collision_blocklist", "name", "min_steps", "max_steps"),
+              ignored=("max_iterations",), what="a problem spec {\"domain\": ..., ...}")
+    paths: dict[str, Path] = {}
+    for key, what in _TMIT_PATHS.items():
+        if key in v:
+            with r.part():
+                paths[key] = _path(r, r.span("/" + key), "/" + key, v[key], True, what)
+    params: list[tuple[str, object]] = []
+    with r.part():
+        if "name" in v:
+            params.append(("name", r.string("/name", v["name"])))
+        for key in ("min_steps", "max_steps"):
+            if key in v:
+                params.append((key, r.integer("/" + key, v[key])))
+        steps = dict(params)
+        if "min_steps" in steps and "max_steps" in steps and steps["min_steps"] > steps["max_steps"]:
+            r.fail("E511", r.span("/max_steps"), f"/max_steps {steps['max_steps']} is below "
+                   f"/min_steps {steps['min_steps']}")
+    r.finish()
+    return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["initial_scene"],
+                     paths.get("predicates"), paths.get("collision_blocklist"), None,
+                     tuple(params), None, None, "tmit-star-json")
+
+
+# --------------------------------------------------------------------------------------------
+# Registry and entry point
+
+#: format name (= RunConfig.format) -> loader(source, report)
+CONFIG_LOADERS: dict[str, Callable[[SourceFile, LoadReport], RunConfig]] = {
+    "tmpc-toml": _load_native,
+    "planet-toml": _load_planet,
+    "tmit-star-json": _load_tmit,
+}
+
+
+def _fail(source: SourceFile, report: LoadReport, code: str, message: str,
+          hint: str | None) -> NoReturn:
+    raise SceneError(error(code, f"{display_name(source.path)}: {message}",
+                           Span(source.path, 0, 1), hint), report.files)
+
+
+def detect_config_format(source: SourceFile, report: LoadReport | None = None) -> str:
+    """``tmit-star-json`` for JSON; for TOML, ``tmpc-toml`` if it has a [problem] table and
+    ``planet-toml`` if it has a top-level ``domain``/``scene``."""
+    report = report or LoadReport()
+    report.files[source.path] = source
+    text = source.text.lstrip()
+    if text.startswith("{") or source.path.lower().endswith(".json"):
+        doc = parse_json(source)
+        if isinstance(doc.value, dict) and ("format" in doc.value or "bounds" in doc.value):
+            _fail(source, report, "E503", "this is a scene, not a run configuration",
+                  "give the manifest TOML, planet run TOML or tmit-star spec that names it")
+        return "tmit-star-json"
+    r = TomlReader(source, report, legacy=True)
+    r.finish()
+    data = r.data
+    if isinstance(data.get("problem"), dict):
+        return "tmpc-toml"
+    if "domain" in data or "scene" in data:
+        return "planet-toml"
+    if data and set(data) <= set(PLANET_PARAMS):
+        _fail(source, report, "E503", "this is a planet params file, not a run configuration",
+              "give the planet run TOML whose `params` names this file")
+    _fail(source, report, "E503", "cannot tell which kind of run configuration this is",
+          "a native manifest has a [problem] table (docs/world.md); a planet run TOML has "
+          "domain/problem/scene keys; a tmit-star spec is JSON")
+
+
+def load_config(path: str | Path, fmt: str | None = None,
+                report: LoadReport | None = None) -> RunConfig:
+    """Read and check a run configuration. ``fmt``: a key of :data:`CONFIG_LOADERS` (detected
+    when None). Raises SceneError; warnings go to ``report``."""
+    report = report if report is not None else LoadReport()
+    source = read_source(path, "configuration")
+    report.files[source.path] = source
+    if fmt is None:
+        fmt = detect_config_format(source, report)
+    elif fmt not in CONFIG_LOADERS:
+        raise SceneError(error("E503", f"unknown configuration format \"{fmt}\"", None, join_hints(
+            did_you_mean(fmt, CONFIG_LOADERS), "the formats are " + ", ".join(CONFIG_LOADERS))))
+    return CONFIG_LOADERS[fmt](source, report)
+
+
+def is_run_config(path: str | Path) -> bool:
+    """A run configuration (TOML, or a tmit-star spec JSON with ``initial_scene``) rather than a
+    scene. Unreadable or malformed files answer False: the scene loader then reports them."""
+    import json
+    path = Path(path)
+    if path.suffix.lower() == ".toml":
+        return True
+    if path.suffix.lower() != ".json":
+        return False
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and "initial_scene" in data
+

@@ -1,0 +1,147 @@
+"""Generated example worlds: the thesis's clutter task and a small tabletop Panda task.
+
+Each generator returns the native scene JSON value (docs/world.md) and the PDDL problem text for
+the matching domain in ``examples/``; ``examples/*/generate.py`` writes them to files. Everything
+is deterministic: the same arguments give the same files.
+
+Clutter (thesis ch. 2, planet/tmit-star problems pb1–pb14): a PR2 with a mobile base between four
+tables. ``n`` sticks start on table 1 (beyond sixteen, on table 2); blue sticks (even indices)
+must end on table 3 and green ones on table 4, both grippers empty. ``red=True`` adds 14 red
+distractor sticks that nothing asks to move but that are in the way.
+"""
+
+from __future__ import annotations
+
+import math
+
+PR2 = "package://example-robot-data/robots/pr2_description/urdf/pr2.urdf"
+PANDA = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
+
+TABLE_HALF = (0.75, 0.35, 0.3835)      # a 1.5 x 0.7 m table, 0.767 m high
+STICK_HALF = (0.02, 0.02, 0.1)         # 4 x 4 x 20 cm sticks standing upright
+TABLES = {                              # name: (x, y, yaw)
+    "table1": (2.2, 0.0, math.pi / 2),
+    "table2": (-2.2, 0.0, math.pi / 2),
+    "table3": (0.0, 2.2, 0.0),
+    "table4": (0.0, -2.2, 0.0),
+}
+#: PR2 arms tucked out of the way, torso half up (the start configuration of the thesis runs)
+PR2_START = {
+    "torso_lift_joint": 0.15,
+    "l_shoulder_pan_joint": 1.5, "l_shoulder_lift_joint": 1.2, "l_upper_arm_roll_joint": 1.6,
+    "l_elbow_flex_joint": -2.0, "l_forearm_roll_joint": 0.0, "l_wrist_flex_joint": -0.3,
+    "l_wrist_roll_joint": 0.0,
+    "r_shoulder_pan_joint": -1.5, "r_shoulder_lift_joint": 1.2, "r_upper_arm_roll_joint": -1.6,
+    "r_elbow_flex_joint": -2.0, "r_forearm_roll_joint": 0.0, "r_wrist_flex_joint": -0.3,
+    "r_wrist_roll_joint": 0.0,
+}
+PR2_ARMS = [j for j in PR2_START if j != "torso_lift_joint"]
+
+
+def _pose(x: float, y: float, z: float, yaw: float = 0.0) -> dict:
+    return {"translation": [round(x, 6), round(y, 6), round(z, 6)],
+            "rotation": [0.0, 0.0, round(math.sin(yaw / 2), 9), round(math.cos(yaw / 2), 9)]}
+
+
+def _table(name: str) -> dict:
+    x, y, yaw = TABLES[name]
+    top = TABLE_HALF[2]
+    return {"name": name, "pose": _pose(x, y, top, yaw),
+            "shape": {"type": "box", "half_extents": list(TABLE_HALF)},
+            # where a placed stick's origin may be: over the top, its bottom at most 3 cm above
+            # it (the collision check keeps it out of the table)
+            "support": {"lower": [-TABLE_HALF[0] + 0.05, -TABLE_HALF[1] + 0.05, top],
+                        "upper": [TABLE_HALF[0] - 0.05, TABLE_HALF[1] - 0.05,
+                                  top + 2 * STICK_HALF[2] + 0.03]}}
+
+
+SLOTS_PER_TABLE = 16
+
+
+def _on_table(table: str, slot: int) -> tuple[float, float, float]:
+    """World position of the slot-th stick on a table: a 4 x 4 grid, filled from the robot's side."""
+    x, y, yaw = TABLES[table]
+    c, s = math.cos(yaw), math.sin(yaw)
+    toward_v = -s * -x + c * -y          # the robot's direction along the table's short axis
+    side = 1.0 if toward_v >= 0 else -1.0
+    u = -0.45 + 0.3 * (slot % 4)          # along the long side
+    v = side * (0.24 - 0.14 * (slot // 4))
+    return x + c * u - s * v, y + s * u + c * v, 2 * TABLE_HALF[2] + STICK_HALF[2] + 0.002
+
+
+def _place(k: int) -> tuple[str, int]:
+    """The k-th placed object goes on table 1, then table 2."""
+    return ("table1", k) if k < SLOTS_PER_TABLE else ("table2", k - SLOTS_PER_TABLE)
+
+
+def clutter_scene(n: int, red: bool = False) -> dict:
+    if not 1 <= n <= 14:
+        raise ValueError("clutter has 1 to 14 sticks")
+    objects = [_table(t) for t in TABLES]
+    names = [stick_name(i) for i in range(n)] + \
+        ([f"red_stick_{k + 1}" for k in range(14)] if red else [])
+    for k, name in enumerate(names):
+        x, y, z = _on_table(*_place(k))
+        objects.append({"name": name, "pose": _pose(x, y, z), "movable": True,
+                        "shape": {"type": "box", "half_extents": list(STICK_HALF)}})
+    return {
+        "format": "tmpc-scene/1",
+        "bounds": [[-3.5, 3.5], [-3.5, 3.5], [0.0, 2.0]],
+        "robot": {"urdf": PR2, "name": "pr2", "mobile_base": True,
+                  "base_pose": _pose(0.0, 0.0, 0.0), "joints": dict(PR2_START),
+                  "controllable": ["torso_lift_joint", *PR2_ARMS]},
+        "objects": objects,
+    }
+
+
+def stick_name(i: int) -> str:
+    return f"{'blue' if i % 2 == 0 else 'green'}_stick_{i // 2 + 1}"
+
+
+def clutter_problem(n: int, red: bool = False) -> str:
+    sticks = [stick_name(i) for i in range(n)]
+    reds = [f"red_stick_{k + 1}" for k in range(14)] if red else []
+    on = [(name, _place(k)[0]) for k, name in enumerate(sticks + reds)]
+    goal = [f"(on-surface {s} {'table3' if s.startswith('blue') else 'table4'})" for s in sticks]
+    lines = [f"; Clutter with {n} stick{'s' if n > 1 else ''}"
+             f"{' and 14 red distractors' if red else ''} (generated by lang/world/generate.py).",
+             f"(define (problem clutter-{n}{'-red' if red else ''})",
+             "  (:domain clutter)",
+             "  (:objects",
+             "    table1 table2 table3 table4 - surface",
+             "    l_gripper_tool_frame r_gripper_tool_frame - manipulator",
+             "    " + " ".join(sticks + reds) + " - stick)",
+             "  (:init",
+             *[f"    (on-surface {s} {t})" for s, t in on],
+             "    (arm-empty l_gripper_tool_frame)",
+             "    (arm-empty r_gripper_tool_frame))",
+             "  (:goal (and",
+             *[f"    {g}" for g in goal],
+             "    (arm-empty l_gripper_tool_frame)",
+             "    (arm-empty r_gripper_tool_frame))))"]
+    return "\n".join(lines) + "\n"
+
+
+def tabletop_scene() -> dict:
+    """A Panda on a bench with two cubes and a tray: small and fast, for tests."""
+    return {
+        "format": "tmpc-scene/1",
+        "bounds": [[-1.0, 1.5], [-1.0, 1.0], [0.0, 1.5]],
+        "robot": {"urdf": PANDA, "name": "panda", "base_pose": _pose(0.0, 0.0, 0.0),
+                  # hand pointing down 20 cm over the bench, collision-free (a test pins this)
+                  "joints": {"panda_joint2": -0.3, "panda_joint4": -1.7, "panda_joint6": 1.4,
+                             "panda_joint7": 0.785, "panda_finger_joint1": 0.035},
+                  "controllable": [f"panda_joint{i}" for i in range(1, 8)]},
+        "objects": [
+            {"name": "bench", "pose": _pose(0.55, 0.0, 0.2),
+             "shape": {"type": "box", "half_extents": [0.3, 0.5, 0.2]},
+             "support": {"lower": [-0.25, -0.45, 0.2], "upper": [0.25, 0.45, 0.3]}},
+            {"name": "tray", "pose": _pose(0.45, -0.3, 0.405),
+             "shape": {"type": "box", "half_extents": [0.1, 0.1, 0.005]},
+             "support": {"lower": [-0.08, -0.08, 0.0], "upper": [0.08, 0.08, 0.08]}},
+            {"name": "red_cube", "pose": _pose(0.5, 0.15, 0.425), "movable": True,
+             "shape": {"type": "box", "half_extents": [0.025, 0.025, 0.025]}},
+            {"name": "blue_cube", "pose": _pose(0.6, 0.25, 0.425), "movable": True,
+             "shape": {"type": "box", "half_extents": [0.025, 0.025, 0.025]}},
+        ],
+    }

@@ -1,0 +1,268 @@
+"""URDF -> :class:`KinematicTree` (links, joints, collision geometry), with `package://` resolution.
+
+Parsing uses yourdfpy (imported lazily; `tmpc check` never pays for it). Meshes are not loaded
+here, only resolved to files: the collision layer loads them with trimesh. `package://NAME/...`
+is looked up, in order, in an ancestor directory of the URDF named NAME, in `ROS_PACKAGE_PATH`,
+in the models installed by the `example-robot-data` package, and beside the URDF.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from tmpc.lang.diagnostics import SceneError, error
+from tmpc.lang.world.scene import Shape
+
+Matrix4 = tuple[tuple[float, float, float, float], ...]
+IDENTITY: Matrix4 = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0),
+                     (0.0, 0.0, 0.0, 1.0))
+MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
+
+
+@dataclass(frozen=True, slots=True)
+class Geometry:
+    """A collision body of a link: a shape at ``origin`` (4x4, in the link frame)."""
+
+    shape: Shape
+    origin: Matrix4 = IDENTITY
+
+
+@dataclass(frozen=True, slots=True)
+class Link:
+    name: str
+    collision: tuple[Geometry, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Mimic:
+    joint: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Joint:
+    name: str
+    type: str                       # revolute | continuous | prismatic | fixed
+    parent: str
+    child: str
+    origin: Matrix4 = IDENTITY      # T_parent_joint
+    axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    lower: float | None = None
+    upper: float | None = None
+    mimic: Mimic | None = None
+
+    @property
+    def movable(self) -> bool:
+        return self.type in MOVABLE_TYPES
+
+
+@dataclass(frozen=True, slots=True)
+class KinematicTree:
+    """A robot: links, and joints in topological order (parents before children)."""
+
+    name: str
+    root: str
+    links: tuple[Link, ...]
+    joints: tuple[Joint, ...]
+    path: str
+
+    def joint(self, name: str) -> Joint | None:
+        return _index(self.joints).get(name)
+
+    def link(self, name: str) -> Link | None:
+        return _index(self.links).get(name)
+
+
+def _index(items) -> dict:
+    return {it.name: it for it in items}
+
+
+# ---------------------------------------------------------------------------------------------
+# package:// resolution
+
+
+@lru_cache(maxsize=1)
+def example_robot_data_dir() -> Path | None:
+    """`share/example-robot-data` of the installed `example-robot-data` package, if any."""
+    for entry in sys.path:
+        cand = Path(entry) / "cmeel.prefix" / "share" / "example-robot-data"
+        if cand.is_dir():
+            return cand
+    return None
+
+
+def _search_path(rel: str) -> list[Path]:
+    """``$TMPC_MESH_PATH`` directories: by relative path, then by file name (e.g. to point a
+    tmit-star checkout, whose .obj meshes are not in its repository, at planet's copies)."""
+    out = []
+    for root in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep):
+        if root:
+            out += [Path(root) / rel, Path(root) / Path(rel).name]
+    return out
+
+
+def resolve_uri(uri: str, base: Path) -> list[Path]:
+    """Candidate files for a URDF/mesh reference, most likely first (existing or not)."""
+    if uri.startswith("file://"):
+        return [Path(uri[7:]), *_search_path(Path(uri[7:]).name)]
+    if not uri.startswith("package://"):
+        p = Path(uri)
+        return ([p] if p.is_absolute() else [base / p]) + _search_path(uri)
+    rest = uri[len("package://"):]
+    pkg, _, sub = rest.partition("/")
+    cands: list[Path] = []
+    for anc in (base, *base.parents):
+        if anc.name == pkg:
+            cands.append(anc / sub)
+    for root in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if root:
+            cands.append(Path(root) / pkg / sub)
+    erd = example_robot_data_dir()
+    if erd is not None:
+        cands.append(erd / sub if pkg == "example-robot-data" else erd / "robots" / pkg / sub)
+    cands += [base / sub, base.parent / sub, *_search_path(sub)]
+    return cands
+
+
+def find_file(uri: str, base: Path) -> Path | None:
+    for cand in resolve_uri(uri, base):
+        if cand.is_file():
+            return cand
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# loading
+
+
+def load_urdf(ref: str | Path, base: Path | None = None, strict_meshes: bool = True) -> KinematicTree:
+    """Load a URDF (a path or a `package://` URI). Raises :class:`SceneError` for bad input."""
+    base = base or Path.cwd()
+    path = find_file(str(ref), base)
+    if path is None:
+        looked = ", ".join(str(p) for p in resolve_uri(str(ref), base)[:6])
+        raise SceneError(error("E560", f"URDF `{ref}` not found", None, f"looked in: {looked}"))
+    return _load_urdf_cached(str(path.resolve()), strict_meshes)
+
+
+@lru_cache(maxsize=16)
+def _load_urdf_cached(path: str, strict_meshes: bool) -> KinematicTree:
+    import yourdfpy  # heavy: numpy, trimesh, lxml
+
+    try:
+        urdf = yourdfpy.URDF.load(path, build_scene_graph=False, load_meshes=False,
+                                  build_collision_scene_graph=False, load_collision_meshes=False)
+    except Exception as exc:   # yourdfpy/lxml raise many kinds; all mean "malformed URDF"
+        raise SceneError(error("E561", f"{path}: not a valid URDF: {exc}", None,
+                               "check the XML and that every joint names existing links")) from None
+    robot = urdf.robot
+    base = Path(path).parent
+    links = tuple(_link(lk, base, path, strict_meshes) for lk in robot.links)
+    joints = tuple(_joint(j, path) for j in robot.joints)
+    root, ordered = _topological(links, joints, path)
+    return KinematicTree(robot.name or Path(path).stem, root, links, ordered, path)
+
+
+def _matrix(m) -> Matrix4:
+    if m is None:
+        return IDENTITY
+    return tuple(tuple(float(v) for v in row) for row in m)
+
+
+def _link(lk, base: Path, path: str, strict: bool) -> Link:
+    geoms = []
+    for col in lk.collisions:
+        shape = _shape(col.geometry, base, path, lk.name, strict)
+        if shape is not None:
+            geoms.append(Geometry(shape, _matrix(col.origin)))
+    return Link(lk.name, tuple(geoms))
+
+
+def _shape(g, base: Path, path: str, link: str, strict: bool) -> Shape | None:
+    if g.box is not None:
+        sx, sy, sz = (float(v) / 2 for v in g.box.size)
+        return Shape("box", size=(sx, sy, sz))
+    if g.sphere is not None:
+        return Shape("sphere", radius=float(g.sphere.radius))
+    if g.cylinder is not None:
+        return Shape("cylinder", radius=float(g.cylinder.radius), length=float(g.cylinder.length))
+    if g.mesh is not None:
+        found = find_file(g.mesh.filename, base)
+        if found is None:
+            if not strict:
+                return None
+            looked = ", ".join(str(p) for p in resolve_uri(g.mesh.filename, base)[:6])
+            raise SceneError(error("E562", f"{path}: mesh `{g.mesh.filename}` of link `{link}` "
+                                   "not found", None, f"looked in: {looked}; set TMPC_MESH_PATH "
+                                   "to directories that hold the meshes"))
+        scale = g.mesh.scale
+        if scale is None:
+            sc = (1.0, 1.0, 1.0)
+        elif hasattr(scale, "__len__"):
+            sc = tuple(float(v) for v in scale)
+        else:
+            sc = (float(scale),) * 3
+        return Shape("mesh", mesh=found, scale=sc)
+    return None
+
+
+def _joint(j, path: str) -> Joint:
+    if j.type in ("floating", "planar"):
+        raise SceneError(error("E563", f"{path}: joint `{j.name}` is {j.type}; tmpc models a "
+                               "mobile base through the scene (`mobile_base`), not the URDF", None,
+                               "make it fixed and set the base pose in the scene"))
+    axis = tuple(float(v) for v in (j.axis if j.axis is not None else (1.0, 0.0, 0.0)))
+    lo = hi = None
+    if j.limit is not None and j.type in ("revolute", "prismatic"):
+        lo = None if j.limit.lower is None else float(j.limit.lower)
+        hi = None if j.limit.upper is None else float(j.limit.upper)
+    mimic = Mimic(j.mimic.joint, float(j.mimic.multiplier if j.mimic.multiplier is not None else 1),
+                  float(j.mimic.offset or 0.0)) if j.mimic is not None else None
+    return Joint(j.name, j.type, j.parent, j.child, _matrix(j.origin), axis, lo, hi, mimic)
+
+
+def _topological(links, joints, path) -> tuple[str, tuple[Joint, ...]]:
+    names = {lk.name for lk in links}
+    children: dict[str, list[Joint]] = {}
+    has_parent = set()
+    for j in joints:
+        for end in (j.parent, j.child):
+            if end not in names:
+                raise SceneError(error("E561", f"{path}: joint `{j.name}` names unknown link "
+                                       f"`{end}`", None))
+        if j.child in has_parent:
+            raise SceneError(error("E561", f"{path}: link `{j.child}` has two parent joints", None))
+        has_parent.add(j.child)
+        children.setdefault(j.parent, []).append(j)
+    roots = [lk.name for lk in links if lk.name not in has_parent]
+    if len(roots) != 1:
+        raise SceneError(error("E561", f"{path}: a URDF needs exactly one root link, found "
+                               f"{len(roots)} ({', '.join(roots[:5])})", None))
+    order, todo = [], [roots[0]]
+    while todo:
+        parent = todo.pop()
+        for j in children.get(parent, []):
+            order.append(j)
+            todo.append(j.child)
+    if len(order) != len(joints):
+        raise SceneError(error("E561", f"{path}: the joints do not form a tree", None))
+    for j in order:
+        if j.mimic is not None and j.mimic.joint not in {x.name for x in joints}:
+            raise SceneError(error("E561", f"{path}: joint `{j.name}` mimics unknown joint "
+                                   f"`{j.mimic.joint}`", None))
+    return roots[0], tuple(order)
+
+
+def find_srdf(urdf_path: str | Path) -> Path | None:
+    """The SRDF of a URDF: ``<stem>.srdf`` beside it or in ``../srdf/`` (example-robot-data)."""
+    p = Path(urdf_path)
+    for cand in (p.with_suffix(".srdf"), p.parent.parent / "srdf" / (p.stem + ".srdf"),
+                 p.parent / "srdf" / (p.stem + ".srdf")):
+        if cand.is_file():
+            return cand
+    return None

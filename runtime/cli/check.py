@@ -1,0 +1,44 @@
+"""`tmpc check FILE... [--static]`: parse and check domains, problems, modules, scenes, run
+configurations, URDFs and Lua files. Light by design: no grounding, JAX or Z3 unless ``--static``."""
+
+from __future__ import annotations
+
+import sys
+
+from tmpc.lang.program import check_paths
+from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_OK
+from tmpc.runtime.cli.output import print_diagnostics, summary
+
+
+def run_check(args) -> int:
+    report = check_paths(args.files)
+    if args.static and report.ok:
+        # SAT/relaxation checks (W610-W613): opt-in, because they ground the problem and load
+        # Z3, and plain `tmpc check` stays light enough for an editor on every keystroke; so
+        # they are imported here, only for --static
+        from tmpc.compiler.artifact import open_world
+        from tmpc.compiler.smt import static_checks
+        from tmpc.runtime.geo_checks import geometric_checks
+        for prog in report.programs:
+            report.diagnostics.extend(static_checks(prog, args.budget))
+        if report.workspace.configs:
+            # geometric conditions no configuration satisfies (W614), by projection
+            for config in report.workspace.configs:
+                report.diagnostics.extend(geometric_checks(open_world(config.path),
+                                                           args.geometry_budget))
+    print_diagnostics(report.diagnostics, report.workspace.files, args.format)
+    if args.format != "json":
+        counts = summary(report.diagnostics)
+        names = ", ".join(_program_name(p) for p in report.programs)
+        if report.ok:
+            sys.stderr.write(f"ok: {names or 'no programs'}" + (f" ({counts})" if counts else "")
+                             + "\n")
+        else:
+            sys.stderr.write(f"check failed: {counts}\n")
+    return EXIT_OK if report.ok else EXIT_ERROR
+
+
+def _program_name(p) -> str:
+    name = f"domain {p.domain.name.text}" if p.domain.form == "domain" else \
+        f"module {p.domain.name.text}"
+    return name + (f" + problem {p.problem.name.text}" if p.problem else "")

@@ -1,0 +1,255 @@
+"""The `tmpc` command line: the composition root.
+
+Each command is a small function registered in :data:`COMMANDS`; argparse's choices come from
+that registry. Commands import what they need lazily so `tmpc check` never loads JAX, Z3, OMPL or
+lupa. Exit codes (DESIGN §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
+plan/sample within limits, 70 internal error (a bug: rerun with --debug and report it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Callable
+
+from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.cli.output import print_diagnostics
+from tmpc.runtime.planners import PLANNERS
+
+# ---------------------------------------------------------------------------------------------
+# commands
+
+
+def cmd_check(args) -> int:
+    from tmpc.runtime.cli.check import run_check
+    return run_check(args)
+
+
+def cmd_compile(args) -> int:
+    from tmpc.runtime.cli.compile import run_compile
+    return run_compile(args)
+
+
+def cmd_fmt(args) -> int:
+    from tmpc.runtime.cli.fmt import run_fmt
+    return run_fmt(args.files, check=args.check, fmt=args.format, print_diags=print_diagnostics)
+
+
+def cmd_eval(args) -> int:
+    from tmpc.runtime.cli.eval import run_eval
+    if args.expr is None and not args.predicate and not args.collisions:
+        sys.stderr.write("tmpc eval: give --expr EXPR, --predicate NAME ARG..., or --collisions\n")
+        return EXIT_USAGE
+    return run_eval(args, print_diagnostics)
+
+
+def cmd_sample(args) -> int:
+    from tmpc.runtime.cli.sample import run_sample
+    return run_sample(args)
+
+
+def cmd_plan(args) -> int:
+    from tmpc.runtime.cli.plan import run_plan
+    return run_plan(args)
+
+
+def cmd_run(args) -> int:
+    from tmpc.runtime.cli.run import run_run
+    return run_run(args)
+
+
+def cmd_validate(args) -> int:
+    from tmpc.runtime.cli.validate import run_validate
+    return run_validate(args)
+
+
+def cmd_view(args) -> int:
+    from tmpc.runtime.cli.view import run_view
+    return run_view(args)
+
+
+def cmd_bench(args) -> int:
+    from tmpc.runtime.cli.bench import run_bench
+    return run_bench(args)
+
+
+COMMANDS: dict[str, tuple[Callable, str]] = {
+    "check": (cmd_check, "check PDDL domains, problems and modules; scenes, configs, URDF, Lua"),
+    "fmt": (cmd_fmt, "format files in place (canonical layout, comments kept)"),
+    "compile": (cmd_compile, "compile a problem into a self-contained artifact (.tmpa)"),
+    "eval": (cmd_eval, "evaluate an expression or predicate, and collisions, at a state"),
+    "sample": (cmd_sample, "states where a predicate or an action's precondition holds"),
+    "plan": (cmd_plan, "task planning only (classical PDDL): a length-optimal sequential plan"),
+    "run": (cmd_run, "task and motion planning: a collision-free, action-annotated trajectory"),
+    "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
+    "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
+    "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tmpc", description="tmpc: task and motion planning compiler and interpreter")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    parser.add_argument("--version", action="version", version=f"tmpc {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name, (_, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        _configure(name, p)
+    return parser
+
+
+def _configure(name: str, p: argparse.ArgumentParser) -> None:
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="diagnostics as text (default) or JSON on stdout")
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                   help="show tracebacks of internal errors")
+    if name == "check":
+        p.add_argument("files", nargs="+", metavar="FILE", help="domain/problem/module files")
+        p.add_argument("--static", action="store_true",
+                       help="also run the SAT and relaxation checks: actions that can never "
+                       "apply, goals that can never hold (W610-W613; grounds the problem)")
+        p.add_argument("--budget", type=float, default=2.0, metavar="S",
+                       help="time budget of --static per program (default 2 s)")
+        p.add_argument("--geometry-budget", type=float, default=60.0, metavar="S",
+                       help="time budget of --static's geometric checks per run configuration, "
+                       "kernel compilation included (default 60 s)")
+    elif name == "eval":
+        p.add_argument("input", metavar="INPUT",
+                       help="a scene (JSON/XML) or run configuration (TOML, tmit-star spec JSON)")
+        p.add_argument("--state", metavar="S.json", help="state JSON (- for stdin); default: "
+                       "the initial state")
+        p.add_argument("--expr", metavar="EXPR", help="e.g. '(position l_gripper_tool_frame)'")
+        p.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"),
+                       help="a geometric predicate and its arguments: truth, distance, gradient")
+        p.add_argument("--collisions", action="store_true",
+                       help="report validity and every colliding pair")
+        p.add_argument("--tolerance", type=float, default=0.0,
+                       help="penetration depth (m) below which contacts are ignored")
+        p.add_argument("--json", action="store_true", help="print JSON")
+    elif name == "compile":
+        p.add_argument("input", metavar="INPUT", nargs="?",
+                       help="a run configuration (manifest TOML, planet TOML, tmit-star spec JSON)")
+        p.add_argument("-o", "--output", required=True, metavar="ART.tmpa")
+        p.add_argument("--domain")
+        p.add_argument("--problem")
+        p.add_argument("--scene")
+        p.add_argument("--semantics", help="legacy Lua predicate file")
+    elif name == "sample":
+        p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
+                       "TOML, tmit-star spec JSON)")
+        g = p.add_mutually_exclusive_group(required=True)
+        g.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"))
+        g.add_argument("--action", nargs="+", metavar=("NAME", "ARG"))
+        p.add_argument("-n", type=int, default=1, help="how many states (default 1)")
+        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        p.add_argument("--state", metavar="S.json", help="objects and mode to sample in (state "
+                       "JSON); default: the initial state")
+        p.add_argument("--iterations", type=int, default=30, help="projection iterations")
+        p.add_argument("--max-starts", type=int, default=20000, help="give up after this many "
+                       "start configurations")
+        p.add_argument("--allow-collisions", action="store_true",
+                       help="accept states in collision")
+    elif name == "plan":
+        p.add_argument("domain", metavar="DOMAIN")
+        p.add_argument("problem", metavar="PROBLEM")
+        p.add_argument("-o", "--output", metavar="PLAN", help="write the plan here (default: "
+                       "stdout)")
+        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try")
+        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try")
+        p.add_argument("--time-limit", type=float, default=300.0, metavar="S",
+                       help="give up after S seconds (exit 3)")
+        p.add_argument("-v", "--verbose", action="store_true",
+                       help="statistics per horizon: clauses, encoding and solve time")
+    elif name == "run":
+        p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
+                       "TOML, tmit-star spec JSON) or a compiled artifact (.tmpa)")
+        p.add_argument("--planner", default="unified", choices=sorted(PLANNERS),
+                       help="planner (default: unified): " + "; ".join(
+                           f"{k}: {v.summary}" for k, v in sorted(PLANNERS.items())))
+        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        p.add_argument("--time-limit", type=float, default=None, metavar="S",
+                       help="stop after S seconds and report the best progress (exit 3); "
+                       "default: the configuration's, else 120")
+        p.add_argument("-o", "--output", metavar="PLAN.json", help="write the plan JSON here "
+                       "(default: the configuration's output, if any)")
+        p.add_argument("--html", metavar="PLAN.html", help="write the animated viewer here")
+        p.add_argument("--png", metavar="PLAN.png", help="write a snapshot here")
+        p.add_argument("--legacy-output", choices=("planet", "tmit-star"),
+                       help="write the bare state array of that planner instead of tmpc-plan/1")
+        p.add_argument("--heuristic-bias", type=float, default=None,
+                       help="probability of a heuristic sample (planet coin_bias)")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    elif name == "validate":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact the "
+                       "plan was made for")
+        p.add_argument("plan", metavar="PLAN.json", help="a tmpc-plan/1 file or a bare planet/"
+                       "tmit-star state array")
+        p.add_argument("--resolution", type=float, default=0.05,
+                       help="longest joint-space step between motion checks (default 0.05)")
+        p.add_argument("--tolerance", type=float, default=None,
+                       help="penetration depth (m) to ignore (default: the configuration's)")
+        p.add_argument("--json", action="store_true", help="print the report as JSON")
+    elif name == "view":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact")
+        p.add_argument("plan", metavar="PLAN.json")
+        p.add_argument("--html", metavar="OUT.html", help="animated, self-contained page")
+        p.add_argument("--png", metavar="OUT.png", help="snapshot")
+        p.add_argument("--state", type=int, default=None, metavar="I",
+                       help="which state the PNG shows (default: the last)")
+    elif name == "bench":
+        p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
+                       "artifacts (one problem each)")
+        p.add_argument("--planners", default="unified", help="comma-separated planner names ("
+                       + ", ".join(sorted(PLANNERS)) + ")")
+        p.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 per problem "
+                       "(default 10)")
+        p.add_argument("--time-limit", type=float, default=120.0, metavar="S",
+                       help="per run (default 120)")
+        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON")
+        p.add_argument("--ompl-log", metavar="RESULTS.log", help="results in OMPL's benchmark "
+                       "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
+        p.add_argument("--validate", action="store_true", help="check every plan with the "
+                       "independent validator")
+    elif name == "fmt":
+        p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
+        p.add_argument("--check", action="store_true",
+                       help="change nothing; exit 1 if a file would be reformatted")
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("tmpc")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from tmpc.lang.diagnostics import TmpcError
+    try:
+        return COMMANDS[args.command][0](args)
+    except TmpcError as exc:
+        print_diagnostics(exc.diagnostics, exc.files, getattr(args, "format", "text"))
+        return exc.exit_code
+    except KeyboardInterrupt:
+        sys.stderr.write("interrupted\n")
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception:
+        if args.debug:
+            raise
+        import traceback
+        last = traceback.extract_tb(sys.exc_info()[2])[-1]
+        sys.stderr.write(f"internal error: {sys.exc_info()[1]!r} at {last.filename}:{last.lineno}\n"
+                         "this is a bug in tmpc; rerun with --debug for the traceback and report "
+                         "it\n")
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

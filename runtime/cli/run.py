@@ -1,0 +1,93 @@
+"""`tmpc run INPUT [--planner NAME] [--seed N] [--time-limit S] [-o plan.json] [--html plan.html]`.
+
+Loads the world (run configuration or artifact), grounds and compiles the problem, checks that it
+can be planned at all (start collision-free, every object of the geometric atoms in the scene,
+the goal relaxed-reachable), runs the planner and writes the plan (docs/plan-format.md). Exit 0
+with a plan; exit 3 when the time limit or Ctrl-C came first — the best progress is still
+written, with status ``partial``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from tmpc.compiler.artifact import open_world
+from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
+from tmpc.runtime.solve import plan_problem
+from tmpc.runtime.viewer import write_html, write_png
+
+DEFAULT_TIME_LIMIT = 120.0
+
+
+def run_run(args) -> int:
+    world = open_world(args.input)
+    # the command line wins; else the configuration's time limit and output (planet's TOML
+    # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
+    config = world.config
+    time_limit = args.time_limit if args.time_limit is not None else \
+        (config.time_limit if config is not None and config.time_limit else DEFAULT_TIME_LIMIT)
+    output = args.output or (str(config.output) if config is not None and config.output
+                             else None)
+    if not time_limit > 0:
+        sys.stderr.write("tmpc run: the time limit must be > 0\n")
+        return EXIT_USAGE
+    progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
+    problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit,
+                                          planner_overrides(args), progress)
+    if progress is not None:
+        progress.done()
+    doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
+                        input_path=args.input, setup_seconds=setup)
+    if output:
+        data = legacy_states(doc, args.legacy_output) if args.legacy_output else doc
+        write_json_atomic(output, data)
+    if args.html or args.png:
+        if args.html:
+            write_html(problem.world, doc, args.html)
+        if args.png:
+            write_png(problem.world, doc, args.png)
+    _report(doc, result, setup)
+    return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
+
+
+def planner_overrides(args) -> dict:
+    """The planner options given on the command line (None where not given)."""
+    return {"heuristic_bias": getattr(args, "heuristic_bias", None)}
+
+
+def _report(doc, result, setup: float) -> None:
+    s = result.stats
+    w = sys.stderr.write
+    if result.status == "solved":
+        w(f"solved: {len(doc['actions'])} actions, {len(doc['states'])} states in "
+          f"{s['seconds']:.2f} s of planning ({setup:.2f} s setup)\n")
+        for a in doc["actions"]:
+            w(f"  {a}\n")
+    else:
+        w(f"no plan ({result.status}) after {s['seconds']:.2f} s; best progress: "
+          f"{len(doc['actions'])} actions toward the goal\n")
+    t = s["time"]
+    w(f"nodes {s['nodes']}, modes {s['modes']}, transitions {s['transitions']}; time: "
+      + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()) + "\n")
+
+
+class _Progress:
+    """One status line on stderr, refreshed at most twice a second."""
+
+    def __init__(self, limit: float):
+        self.limit, self.t0, self.last = limit, time.perf_counter(), 0.0
+
+    def __call__(self, planner) -> None:
+        now = time.perf_counter()
+        if now - self.last < 0.5:
+            return
+        self.last = now
+        sys.stderr.write(f"\r  {now - self.t0:6.1f}/{self.limit:.0f} s  nodes "
+                         f"{len(planner.node_mode):6d}  modes {len(planner.modes):4d}  "
+                         f"transitions {planner.counts['transitions']:4d}\033[K")
+        sys.stderr.flush()
+
+    def done(self) -> None:
+        sys.stderr.write("\r\033[K")

@@ -1,0 +1,7 @@
+"""tmpc.runtime.collision: the python-fcl collision world of a scene, its geometry, and the sound
+batched bounding-sphere first pass.
+"""
+
+from tmpc.runtime.collision.batch import PAD_SIZES as PAD_SIZES
+from tmpc.runtime.collision.world import CollisionWorld as CollisionWorld
+from tmpc.runtime.collision.world import collision_world as collision_world

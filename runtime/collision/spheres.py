@@ -1,0 +1,626 @@
+"""Bounding spheres of collision geometry and the sound first pass of batched collision checks.
+
+Every geometry gets (a) one bounding ball and (b) a cover of up to ``max_spheres`` balls whose
+union contains it: a box or cylinder is cut into cells, each inside its circumscribed ball; a
+mesh's triangles are clustered, each ball containing all three vertices of every triangle of its
+cluster, hence (a ball is convex) the whole triangle. Obstacles that stay put during a batch
+(static objects, movable objects not held) are oriented boxes with a rounding radius (a sphere is
+a box of size 0 rounded by its radius) that contain them.
+
+Soundness: if two geometries touch, some point lies in both, hence in a ball (or box) of each;
+so a geometry pair whose bounding balls, or whose covers, are disjoint cannot collide, and fcl is
+asked only about the remaining candidate pairs. A state is declared free only when every
+candidate pair is confirmed free by fcl: the pass never turns a colliding state into a free one
+(radii carry a relative and absolute slack of 1e-9 against rounding). tests/test_collision.py
+checks this against exact fcl on thousands of random states.
+
+The pass runs in two stages: JAX computes forward kinematics and the bounding-ball tests of every
+pair for a whole batch (``coarse``); numpy tests the covers of the pairs that survive (``fine``).
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tmpc.compiler.jaxcfg import configured
+from tmpc.compiler.robot import homogeneous
+from tmpc.lang.world import Shape
+from tmpc.runtime.collision.batch import pad_batch
+
+if TYPE_CHECKING:
+    from tmpc.runtime.collision.geometry import MeshData
+    from tmpc.runtime.collision.world import CollisionWorld, Placement
+
+SLACK = 1e-9
+#: radius of padding balls (never overlap anything)
+_NEVER = -1e30
+
+
+def _inflate(r):
+    return np.asarray(r) * (1 + SLACK) + SLACK
+
+
+def bounding_ball(points: np.ndarray, iters: int = 64) -> tuple[np.ndarray, float]:
+    """A ball containing ``points`` (N, 3): Badoiu-Clarkson steps from the box center, then
+    the radius that covers every point (so the ball contains them whatever the center)."""
+    pts = np.asarray(points, float)
+    c = (pts.min(0) + pts.max(0)) / 2
+    for i in range(iters):
+        far = pts[np.argmax(((pts - c) ** 2).sum(1))]
+        c = c + (far - c) / (i + 2)
+    r = float(np.sqrt(((pts - c) ** 2).sum(1).max()))
+    best_c = (pts.min(0) + pts.max(0)) / 2
+    best_r = float(np.sqrt(((pts - best_c) ** 2).sum(1).max()))
+    return (c, r) if r < best_r else (best_c, best_r)
+
+
+def _grid(h: np.ndarray, k: int) -> tuple[int, int, int]:
+    """Cells per axis (product <= k) that make cells of a box with half-extents h most cubic."""
+    n = [1, 1, 1]
+    while True:
+        i = int(np.argmax(np.asarray(h) / n))
+        if np.prod(n) // n[i] * (n[i] + 1) > k:
+            return tuple(n)
+        n[i] += 1
+
+
+def _box_cells(h: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    n = _grid(h, k)
+    axes = [(-h[i] + (2 * np.arange(n[i]) + 1) * h[i] / n[i]) for i in range(3)]
+    C = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    return C, np.full(len(C), float(np.linalg.norm(h / np.asarray(n))))
+
+
+def _mesh_cover(V: np.ndarray, F: np.ndarray, k: int, iters: int = 10):
+    """Cluster triangles into k groups (farthest-point seeds, then Lloyd steps that assign a
+    triangle to the center nearest its farthest vertex and move centers to the middle of their
+    vertices' box); one ball per group containing every vertex of its triangles."""
+    tri = V[F]                                        # (T, 3, 3)
+    cent = tri.mean(1)
+    k = max(1, min(k, len(F)))
+    seeds = [int(np.argmax(((cent - cent.mean(0)) ** 2).sum(1)))]
+    d = ((cent - cent[seeds[0]]) ** 2).sum(1)
+    while len(seeds) < k:
+        seeds.append(int(np.argmax(d)))
+        d = np.minimum(d, ((cent - cent[seeds[-1]]) ** 2).sum(1))
+    C = cent[seeds]
+    flat = tri.reshape(-1, 3)
+    for _ in range(iters + 1):
+        cost = ((tri[:, None] - C[None, :, None]) ** 2).sum(-1).max(-1)      # (T, k)
+        lab = cost.argmin(1)
+        lo, hi = np.full((k, 3), np.inf), np.full((k, 3), -np.inf)
+        np.minimum.at(lo, np.repeat(lab, 3), flat)
+        np.maximum.at(hi, np.repeat(lab, 3), flat)
+        with np.errstate(invalid="ignore"):      # empty clusters (inf + -inf) keep their centre
+            C = np.where(np.isfinite(lo), (lo + hi) / 2, C)
+    cost = ((tri[:, None] - C[None, :, None]) ** 2).sum(-1).max(-1)
+    lab = cost.argmin(1)
+    r2 = np.full(k, -1.0)
+    np.maximum.at(r2, lab, cost[np.arange(len(lab)), lab])
+    keep = r2 >= 0
+    return C[keep], np.sqrt(r2[keep])
+
+
+#: target ball radius of covers (m) and the most balls per geometry
+R_TARGET = 0.05
+K_MAX = 16
+_MESH_COVERS: dict = {}
+
+
+def cover(shape: Shape, mesh: "MeshData | None", k_max: int = K_MAX,
+          r_target: float = R_TARGET) -> tuple[np.ndarray, np.ndarray]:
+    """Balls (centers (m, 3), radii (m,)) in the geometry frame whose union contains it (for a
+    mesh: its surface, which is all fcl's BVH test sees)."""
+    if shape.kind == "sphere":
+        C, r = np.zeros((1, 3)), np.array([float(shape.radius)])
+    elif shape.kind == "box":
+        h = np.asarray(shape.size, float)
+        C, r = _box_cells(h, int(np.clip(np.prod(np.ceil(h / r_target)), 1, k_max)))
+    elif shape.kind == "cylinder":
+        m = int(np.clip(np.ceil(shape.length / (2 * shape.radius)), 1, k_max))
+        z = -shape.length / 2 + (2 * np.arange(m) + 1) * shape.length / (2 * m)
+        C = np.stack([np.zeros(m), np.zeros(m), z], 1)
+        r = np.full(m, float(np.hypot(shape.radius, shape.length / (2 * m))))
+    else:
+        key = (id(mesh), k_max, r_target)
+        if key not in _MESH_COVERS:
+            _MESH_COVERS[key] = (mesh, _cover_mesh(mesh, k_max, r_target))
+        C, r = _MESH_COVERS[key][1]
+    return C, _inflate(r)
+
+
+def _cover_mesh(mesh: "MeshData", k_max: int, r_target: float):
+    import trimesh
+    V, F = mesh.vertices, mesh.faces
+    tri = V[F]
+    area = float(np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+                 .sum() / 2)
+    k = int(np.clip(np.ceil(area / (np.pi * r_target ** 2)), 1, k_max))
+    edge = max(np.sqrt(area / (np.pi * k)) / 2, 1e-3)
+    while True:    # small triangles let the clusters (and balls) be tight
+        V2, F2 = trimesh.remesh.subdivide_to_size(V, F, max_edge=edge, max_iter=6)
+        if len(F2) <= 20000:
+            break
+        edge *= 1.5
+    return _mesh_cover(np.asarray(V2, float), np.asarray(F2), k)
+
+
+def ball(shape: Shape, mesh: "MeshData | None") -> tuple[np.ndarray, float]:
+    """One ball containing the geometry (its frame)."""
+    if shape.kind == "sphere":
+        c, r = np.zeros(3), float(shape.radius)
+    elif shape.kind == "box":
+        c, r = np.zeros(3), float(np.linalg.norm(shape.size))
+    elif shape.kind == "cylinder":
+        c, r = np.zeros(3), float(np.hypot(shape.radius, shape.length / 2))
+    else:
+        c, r = bounding_ball(mesh.vertices)
+    return c, float(_inflate(r))
+
+
+def box(shape: Shape, aabb_center, aabb_half) -> tuple[np.ndarray, np.ndarray, float]:
+    """(center, half-extents, rounding radius) of a rounded box containing the geometry."""
+    if shape.kind == "sphere":
+        return np.zeros(3), np.zeros(3), float(_inflate(shape.radius))
+    return np.asarray(aabb_center, float), _inflate(aabb_half), 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# the pass
+
+
+@dataclass
+class Plan:
+    """Index arrays of one batch call (object placements and held objects fixed).
+
+    ``mv``: the moving geometries (global ids; robot links and held objects), hanging on frames
+    ``used[fpos]``; ``mm``: pairs of moving geometries (positions in ``mv``); ``by_box``: per
+    obstacle box, the moving positions paired with it; ``ff``: pairs of geometries that do not
+    move in the batch (global ids, checked once).
+    """
+
+    used: np.ndarray
+    mv: np.ndarray
+    fpos: np.ndarray
+    local: np.ndarray            # (M, 4, 4) T_frame_geom
+    ball_c: np.ndarray           # (M, 3) in frame coordinates
+    ball_r: np.ndarray           # (M,)
+    obb_c: np.ndarray            # (M, 3) box (the local AABB) center, frame coordinates
+    obb_R: np.ndarray            # (M, 3, 3) box axes in frame coordinates
+    obb_h: np.ndarray            # (M, 3) half-extents
+    cov_c: np.ndarray            # (3, M, K) in frame coordinates, component first
+    cov_r: np.ndarray            # (M, K), padding _NEVER
+    mm: np.ndarray               # (P, 2)
+    by_box: list[tuple[int, np.ndarray]]
+    box_geom: np.ndarray         # (W,) global id of each obstacle
+    box_R: np.ndarray            # (W, 3, 3) world rotation
+    box_t: np.ndarray            # (W, 3) world center
+    box_h: np.ndarray            # (W, 3) half-extents
+    box_r: np.ndarray            # (W,) rounding radius
+    ff: np.ndarray               # (F, 2)
+    tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
+
+
+@dataclass
+class Candidates:
+    """Geometry pairs (global ids) the pass could not rule out, sorted by state; forward
+    kinematics of the plan's frames, batch-last: R (U, 3, 3, B), p (U, 3, B)."""
+
+    states: np.ndarray
+    ga: np.ndarray
+    gb: np.ndarray
+    R: np.ndarray
+    p: np.ndarray
+    coarse: int                  # pairs left after the bounding-ball stage
+
+
+class FirstPass:
+    """Sphere covers of a :class:`CollisionWorld`'s geometry and the batched candidate search."""
+
+    def __init__(self, world: "CollisionWorld", k_max: int = K_MAX, r_target: float = R_TARGET):
+        self.world = world
+        self.covers = [cover(g.shape, g.mesh, k_max, r_target) for g in world.geoms]
+        self.balls = [ball(g.shape, g.mesh) for g in world.geoms]
+        self.K = max([len(c[1]) for c in self.covers] + [1])
+        self._fk = _jit_frames_T(world.fk)
+        self._used = np.zeros(0, np.int64)
+        self._plans: dict = {}
+        self._tables: dict = {}
+
+    def reserve(self, frames) -> None:
+        """Frames that will hold objects (kinematic parents): read them from the start so the
+        batched FK compiles once for every mode."""
+        self._used = np.union1d(self._used, np.asarray(list(frames), np.int64))
+
+    def plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
+        """The plan of a batch (cached: motions reuse it)."""
+        key = (tuple((b, pl.frame, pl.T.tobytes(), pl.held) for b, pl in sorted(place.items())),
+               allowed.tobytes())
+        if key not in self._plans:
+            if len(self._plans) >= 16:
+                self._plans.pop(next(iter(self._plans)))
+            self._plans[key] = self._plan(place, allowed)
+        return self._plans[key]
+
+    def _plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
+        w = self.world
+        gframe, local = w.geom_frames(place)
+        body = w._geom_body
+        moving = gframe >= 0                                   # per dynamic position
+        mv = w.dynamic[moving]
+        # Frames read by the batched FK: every frame that carries a robot geometry plus those
+        # holding objects, grown monotonically so the jitted FK slice (one compile per frame set
+        # and batch shape) is reused across modes instead of retraced per held-object set.
+        self._used = np.union1d(self._used, gframe[moving]).astype(np.int64)
+        used = self._used
+        mpos = np.full(len(w.geoms), -1, np.int64)
+        mpos[mv] = np.arange(len(mv))
+        world_T = {int(g): local[k] for k, g in enumerate(w.dynamic) if not moving[k]}
+        for g in w.static:
+            world_T[int(g)] = place[w.geoms[g].body].T @ w.geoms[g].T_body_geom
+        pairs = np.concatenate([w.dd, w.ds]).reshape(-1, 2)
+        pairs = pairs[~allowed[body[pairs[:, 0]], body[pairs[:, 1]]]]
+        ma, mb = mpos[pairs[:, 0]] >= 0, mpos[pairs[:, 1]] >= 0
+        mm = np.stack([mpos[pairs[ma & mb, 0]], mpos[pairs[ma & mb, 1]]], 1).reshape(-1, 2)
+        one = pairs[ma ^ mb]
+        one = np.where(ma[ma ^ mb][:, None], one, one[:, ::-1])   # moving geometry first
+        box_geom = np.unique(one[:, 1])
+        boxes = [self._world_box(int(g), world_T[int(g)]) for g in box_geom]
+        by_box = [(i, mpos[one[one[:, 1] == g, 0]]) for i, g in enumerate(box_geom)]
+        M = len(mv)
+        lm = local[moving]
+        cov_c, cov_r = np.zeros((M, self.K, 3)), np.full((M, self.K), _NEVER)
+        ball_c, ball_r = np.zeros((M, 3)), np.zeros(M)
+        for i, g in enumerate(mv):
+            C, r = self.covers[g]
+            cov_c[i, :len(r)] = C @ lm[i, :3, :3].T + lm[i, :3, 3]
+            cov_r[i, :len(r)] = r
+            ball_c[i] = lm[i, :3, :3] @ self.balls[g][0] + lm[i, :3, 3]
+            ball_r[i] = self.balls[g][1]
+        arr = [np.array([b[j] for b in boxes]).reshape((-1,) + shp)
+               for j, shp in enumerate(((3, 3), (3,), (3,), ()))]
+        gm = [w.geoms[g] for g in mv]
+        obb_c = np.array([L[:3, :3] @ g.aabb_center + L[:3, 3] for L, g in zip(lm, gm)])
+        obb_h = np.array([_inflate(g.aabb_half) for g in gm])
+        cov_c = np.ascontiguousarray(cov_c.transpose(2, 0, 1))
+        tables = [(k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm)]
+        return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r,
+                    obb_c.reshape(-1, 3), lm[:, :3, :3], obb_h.reshape(-1, 3), cov_c,
+                    cov_r, mm, by_box, box_geom, *arr, pairs[~ma & ~mb],
+                    [(k, t) for k, t in tables if t is not None])
+
+    def _table(self, ga: int, gb: int) -> "PairTable | None":
+        """The pair table of two robot link geometries (None for held objects, whose placement
+        changes from call to call, and for pairs with no table)."""
+        if any(self.world.bodies[self.world.geoms[g].body].kind != "link" for g in (ga, gb)):
+            return None
+        key = (min(ga, gb), max(ga, gb))
+        if key not in self._tables:
+            self._tables[key] = PairTable.build(self.world, *key)
+        return self._tables[key]
+
+    def _world_box(self, g: int, T: np.ndarray):
+        geom = self.world.geoms[g]
+        c, h, r = box(geom.shape, geom.aabb_center, geom.aabb_half)
+        return T[:3, :3], T[:3, :3] @ c + T[:3, 3], h, r
+
+    def candidates(self, Q: np.ndarray, plan: Plan) -> Candidates:
+        """The pass over states Q (B, n)."""
+        R, p = self._fk(pad_batch(Q), plan.used)
+        R, p = np.asarray(R)[..., :len(Q)], np.asarray(p)[..., :len(Q)]
+        Rg, pg = R[plan.fpos], p[plan.fpos]                             # (M, 3, 3, B), (M, 3, B)
+        bc = plan.ball_c[:, None, :, None]
+        c = Rg[:, :, 0] * bc[:, :, 0] + Rg[:, :, 1] * bc[:, :, 1] + Rg[:, :, 2] * bc[:, :, 2] + pg
+        r = plan.ball_r
+        a, b = plan.mm[:, 0], plan.mm[:, 1]
+        d = c[a] - c[b]                                                     # (P, 3, B)
+        d2 = d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2
+        hit = d2 <= ((r[a] + r[b]) ** 2)[:, None]
+        for k, table in plan.tables:
+            hit[k] &= ~table.free(Q)
+        k1, s1 = np.nonzero(hit)
+        near = self._box_meets_ball(Rg, pg, plan, a[k1], b[k1], c, s1) & \
+            self._box_meets_ball(Rg, pg, plan, b[k1], a[k1], c, s1)
+        k1, s1 = k1[near], s1[near]
+        m2, w2, s2 = self._coarse_boxes(c, plan)
+        coarse = len(s1) + len(s2)
+        ok1 = self._fine_pairs(Rg, pg, plan, s1, a[k1], b[k1], c)
+        ok2 = self._fine_boxes(Rg, pg, plan, s2, m2, w2)
+        states = np.concatenate([s1[ok1], s2[ok2]])
+        ga = plan.mv[np.concatenate([a[k1][ok1], m2[ok2]])]
+        gb = np.concatenate([plan.mv[b[k1][ok1]], plan.box_geom[w2[ok2]]])
+        order = np.argsort(states, kind="stable")
+        return Candidates(states[order], ga[order], gb[order], R, p, coarse)
+
+    @staticmethod
+    def _box_meets_ball(Rg, pg, plan: Plan, m, other, c, s) -> np.ndarray:
+        """Whether the box of geometry m meets the bounding ball of geometry ``other`` in states
+        s: (N,) bool."""
+        Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]                # (N, 3, 3), (N, 3)
+        y = [Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2] - plan.obb_c[m, i]
+             for i in range(3)]                                            # frame coordinates
+        O, h = plan.obb_R[m], plan.obb_h[m]
+        d2 = 0.0
+        for j in range(3):
+            loc = O[:, 0, j] * y[0] + O[:, 1, j] * y[1] + O[:, 2, j] * y[2]
+            d2 = d2 + np.maximum(np.abs(loc) - h[:, j], 0.0) ** 2
+        return d2 <= plan.ball_r[other] ** 2
+
+    @staticmethod
+    def _coarse_boxes(c, plan: Plan):
+        """Bounding balls vs obstacle boxes, for the states whose whole-robot box (of all balls)
+        meets the obstacle's world box: (moving positions, boxes, states)."""
+        if not plan.by_box:
+            z = np.zeros(0, np.int64)
+            return z, z, z
+        r = plan.ball_r
+        lo, hi = (c - r[:, None, None]).min(0), (c + r[:, None, None]).max(0)   # (3, B)
+        half = (np.abs(plan.box_R) @ plan.box_h[..., None])[..., 0] + plan.box_r[:, None]
+        out_m, out_w, out_s = [], [], []
+        for w, gs in plan.by_box:
+            t = plan.box_t[w][:, None]
+            near = np.nonzero(((lo <= t + half[w][:, None]) & (hi >= t - half[w][:, None]))
+                              .all(0))[0]
+            if not len(near):
+                continue
+            x = c[gs][:, :, near] - t[None]                                # (G, 3, S)
+            loc = np.einsum("ji,gjs->gis", plan.box_R[w], x)
+            e = np.maximum(np.abs(loc) - plan.box_h[w][None, :, None], 0.0)
+            gi, si = np.nonzero((e * e).sum(1) <= ((r[gs] + plan.box_r[w]) ** 2)[:, None])
+            out_m.append(gs[gi])
+            out_w.append(np.full(len(gi), w))
+            out_s.append(near[si])
+        cat = (lambda xs: np.concatenate(xs) if xs else np.zeros(0, np.int64))
+        return cat(out_m), cat(out_w), cat(out_s)
+
+    @staticmethod
+    def _world_cover(Rg, pg, plan: Plan, m, s, order=None) -> list[np.ndarray]:
+        """World centers [x, y, z] (N, K) of the covers of moving geometries m in states s (the
+        balls ``order`` (N, K') only, when given). Component-first: numpy reduces over a
+        trailing axis of 3 several times slower."""
+        Rm, pm = Rg[m, :, :, s], pg[m, :, s]                               # (N, 3, 3), (N, 3)
+        cov = [plan.cov_c[j][m] for j in range(3)]                         # (N, K) each
+        if order is not None:
+            cov = [np.take_along_axis(cj, order, 1) for cj in cov]
+        return [Rm[:, i, 0, None] * cov[0] + Rm[:, i, 1, None] * cov[1]
+                + Rm[:, i, 2, None] * cov[2] + pm[:, i, None] for i in range(3)]
+
+    def _fine_pairs(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
+        """Covers of pairs of moving geometries: the balls of a's cover that meet b's bounding
+        ball, against the balls of b's cover that meet a's bounding ball. (N,) bool: still a
+        candidate."""
+        keep = np.zeros(len(s), bool)
+        for lo in range(0, len(s), FINE_CHUNK):
+            sl = slice(lo, lo + FINE_CHUNK)
+            keep[sl] = self._fine_chunk(Rg, pg, plan, s[sl], a[sl], b[sl], c)
+        return keep
+
+    def _fine_chunk(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
+        if len(s) == 0:
+            return np.zeros(0, bool)
+        near = []
+        for m, other in ((a, b), (b, a)):
+            # the other's ball center in m's frame: no per-ball transform needed
+            Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]
+            d2 = 0.0
+            for i in range(3):
+                o = Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2]
+                d2 = d2 + (plan.cov_c[i][m] - o[:, None]) ** 2
+            rr = plan.cov_r[m] + plan.ball_r[other][:, None]
+            near.append((d2 <= rr * rr) & (rr > 0))
+        live = near[0].any(1) & near[1].any(1)
+        out = np.zeros(len(s), bool)
+        if not live.any():
+            return out
+        s, packed = s[live], []
+        for m, nr in zip((a[live], b[live]), (near[0][live], near[1][live])):
+            order = np.argsort(~nr, axis=1, kind="stable")[:, :nr.sum(1).max()]
+            C = self._world_cover(Rg, pg, plan, m, s, order)
+            rad = np.where(np.take_along_axis(nr, order, 1),
+                           np.take_along_axis(plan.cov_r[m], order, 1), _NEVER)
+            packed.append((C, rad))
+        (Ca, ra), (Cb, rb) = packed
+        d2 = sum((Ca[i][:, :, None] - Cb[i][:, None]) ** 2 for i in range(3))
+        rr = ra[:, :, None] + rb[:, None]
+        out[live] = ((d2 <= rr * np.abs(rr)) & (rr > 0)).any((1, 2))
+        return out
+
+    def _fine_boxes(self, Rg, pg, plan: Plan, s, m, w) -> np.ndarray:
+        if len(s) == 0:
+            return np.zeros(0, bool)
+        C = self._world_cover(Rg, pg, plan, m, s)                           # 3 x (N, K)
+        x = [C[i] - plan.box_t[w][:, i, None] for i in range(3)]
+        Rw, h = plan.box_R[w], plan.box_h[w]
+        d2 = 0.0
+        for j in range(3):      # the box axis j: loc_j = sum_i R_ij x_i
+            loc = Rw[:, 0, j, None] * x[0] + Rw[:, 1, j, None] * x[1] + Rw[:, 2, j, None] * x[2]
+            d2 = d2 + np.maximum(np.abs(loc) - h[:, j, None], 0.0) ** 2
+        rr = plan.cov_r[m] + plan.box_r[w][:, None]
+        return ((d2 <= rr * np.abs(rr)) & (rr > 0)).any(1)
+
+
+# ---------------------------------------------------------------------------------------------
+# pair tables
+
+
+@dataclass
+class PairTable:
+    """A sound "free" test for two link geometries whose relative pose depends on one or two
+    configuration coordinates (the PR2's two shoulder pan links: a candidate in every random
+    state, their covers being ~12 cm apart).
+
+    ``dist`` holds, on a grid of the coordinates, a lower bound of the distance between the two
+    (fcl GJK distance between their convex hulls, which contain them, minus :data:`GJK_MARGIN`).
+    Moving coordinate i by Δ moves no point of one geometry relative to the other by more than
+    ``rate[i] * |Δ|`` (a revolute joint: |Δ| times the largest distance of the moved geometry
+    from the joint origin; a prismatic joint: |Δ|), so the pair is free at x when
+    ``dist[g] > sum_i rate[i] * |x_i - g_i|`` for the nearest grid point g.
+    """
+
+    ga: int
+    gb: int
+    cols: np.ndarray             # (k,) columns of q
+    lo: np.ndarray
+    step: np.ndarray
+    n: np.ndarray
+    wrap: np.ndarray
+    rate: np.ndarray
+    dist: np.ndarray             # (prod n,)
+
+    def free(self, Q: np.ndarray) -> np.ndarray:
+        """(B,) bool: the pair certainly does not touch in states Q (B, n)."""
+        x = Q[:, self.cols]
+        span = np.where(self.wrap, 2 * np.pi, 1.0)
+        x = np.where(self.wrap, (x - self.lo) % span + self.lo, x)
+        idx = np.rint((x - self.lo) / self.step).astype(np.int64)
+        idx = np.where(self.wrap, idx % self.n, np.clip(idx, 0, self.n - 1))
+        dev = np.abs(x - (self.lo + idx * self.step))
+        dev = np.where(self.wrap, np.minimum(dev, 2 * np.pi - dev), dev)
+        flat = np.ravel_multi_index(tuple(idx.T), tuple(self.n))
+        return self.dist[flat] > (self.rate * dev).sum(1)
+
+    @staticmethod
+    def build(world: "CollisionWorld", ga: int, gb: int) -> "PairTable | None":
+        """The table of a pair of robot link geometries, or None when their relative pose depends
+        on no or more than two coordinates (or on a joint more than once, or on a prismatic
+        joint below another moving joint)."""
+        import fcl
+
+        model = world.model
+        if any(world.bodies[world.geoms[g].body].kind != "link" for g in (ga, gb)):
+            return None
+        sides = [_path_joints(model, world.bodies[world.geoms[g].body].name) for g in (ga, gb)]
+        common = {j.name for j in sides[0]} & {j.name for j in sides[1]}
+        qidx = {n: i for i, n in enumerate(model.q_names)}
+        coords: dict[int, list] = {}
+        for side, chain in enumerate(sides):
+            for depth, j in enumerate(chain):
+                if j.name in common or not j.movable:
+                    continue
+                src, mult = (j.mimic.joint, j.mimic.multiplier) if j.mimic else (j.name, 1.0)
+                if src in qidx:
+                    coords.setdefault(qidx[src], []).append((side, depth, j, abs(mult)))
+        if not 1 <= len(coords) <= 2 or any(len(v) > 1 for v in coords.values()):
+            return None
+        cols = np.array(sorted(coords))
+        entries = [coords[c][0] for c in cols]
+        T = world.frames(model.default_q[None], world.default_place)
+        Tg = _geom_world(world, T, ga), _geom_world(world, T, gb)
+        Tj = {e[2].name: _frame_world(world, model.default_q, e[2].child) for e in entries}
+        rate = []
+        for side, depth, j, mult in entries:
+            if j.type == "prismatic":
+                rate.append(mult)
+                continue
+            o = Tj[j.name][:3, 3]
+            below = [e for e in entries if e[0] == side and e[1] < depth]
+            if below and below[0][2].type == "prismatic":
+                return None
+            if below:
+                ob = Tj[below[0][2].name][:3, 3]
+                rho = np.linalg.norm(ob - o) + _reach(world.geoms[(ga, gb)[side]],
+                                                      Tg[side], ob)
+            else:
+                rho = _reach(world.geoms[(ga, gb)[side]], Tg[side], o)
+            rate.append(mult * rho)
+        rate = np.array(rate) * (1 + SLACK)
+        lo = np.where(model.wraps[cols], -np.pi, model.lower[cols])
+        hi = np.where(model.wraps[cols], np.pi, model.upper[cols])
+        n = np.maximum(2, np.ceil((hi - lo) * rate / (2 * TABLE_SLACK))).astype(np.int64)
+        while np.prod(n) > TABLE_CELLS:
+            n = np.maximum(2, (n * 0.9).astype(np.int64))
+        wrap = model.wraps[cols]
+        step = np.where(wrap, (hi - lo) / n, (hi - lo) / (n - 1))
+        grid = np.stack(np.meshgrid(*[lo[i] + np.arange(n[i]) * step[i] for i in range(len(n))],
+                                    indexing="ij"), -1).reshape(-1, len(n))
+        Q = np.repeat(model.default_q[None], len(grid), 0)
+        Q[:, cols] = grid
+        fpos, local, R, p = world.frames(Q, world.default_place)
+        objs = [world.geoms[g].narrow for g in (ga, gb)]
+        k = [world._dyn_pos[g] for g in (ga, gb)]
+        dist = np.empty(len(grid))
+        for i in range(len(grid)):
+            for o, kk in zip(objs, k):
+                Tw = np.eye(4)
+                Tw[:3, :3], Tw[:3, 3] = R[i, fpos[kk]], p[i, fpos[kk]]
+                Tw = Tw @ local[kk]
+                o.setTransform(fcl.Transform(Tw[:3, :3], Tw[:3, 3]))
+            dist[i] = fcl.distance(objs[0], objs[1], fcl.DistanceRequest(), fcl.DistanceResult())
+        return PairTable(ga, gb, cols, lo, step, n, wrap, rate, np.maximum(dist, 0.0) - GJK_MARGIN)
+
+
+#: grid spacing aims at this much slack per coordinate (m); tables have at most TABLE_CELLS cells
+TABLE_SLACK = 0.004
+TABLE_CELLS = 4096
+#: GJK's distance may exceed the true one by its tolerance: subtract this (m)
+GJK_MARGIN = 1e-4
+
+
+def _path_joints(model, link: str) -> list:
+    """Joints from ``link`` up to the root (nearest first)."""
+    parent = {j.child: j for j in model.tree.joints}
+    out = []
+    while link in parent:
+        out.append(parent[link])
+        link = parent[link].parent
+    return out
+
+
+def _frame_world(world, q, link: str) -> np.ndarray:
+    return homogeneous(world.fk(q))[world.model.frame(link)]
+
+
+def _geom_world(world, frames, g: int) -> np.ndarray:
+    fpos, local, R, p = frames
+    k = world._dyn_pos[g]
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R[0, fpos[k]], p[0, fpos[k]]
+    return T @ local[k]
+
+
+def _reach(geom, T: np.ndarray, o: np.ndarray) -> float:
+    """Largest distance from point o of the geometry placed at T (world)."""
+    if geom.mesh is not None:
+        pts = geom.mesh.hull_vertices
+    else:
+        c, h = geom.aabb_center, geom.aabb_half
+        pts = c + h * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    world_pts = pts @ T[:3, :3].T + T[:3, 3]
+    return float(np.linalg.norm(world_pts - o, axis=1).max())
+
+
+#: candidate pairs per step of the cover stage (bounds its memory)
+FINE_CHUNK = 4096
+
+
+def _jit_frames_T(fk):
+    """(Q, idx) -> R (U, 3, 3, B), p (U, 3, B) of frames idx, jitted once per idx (a constant
+    index lets XLA slice instead of gather: measured 3x faster). Batch-last, so that numpy's
+    per-pair arithmetic runs over contiguous rows of states (measured 8x faster than gathering
+    pairs out of batch-first arrays)."""
+    if fk in _FRAMES_T:
+        return _FRAMES_T[fk]
+    jax = configured()
+    jnp = jax.numpy
+    cache: dict = {}
+
+    def frames(Q, idx):
+        key = tuple(int(i) for i in idx)
+        if key not in cache:
+            sel = np.array(key, np.int64)
+
+            def run(Q):
+                f = fk(Q)
+                return (jnp.transpose(f.R[:, sel], (1, 2, 3, 0)),
+                        jnp.transpose(f.p[:, sel], (1, 2, 0)))
+            cache[key] = jax.jit(run)
+        return cache[key](Q)
+    _FRAMES_T[fk] = frames
+    return frames
+
+
+_FRAMES_T: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

@@ -1,0 +1,75 @@
+"""tmpc.runtime.planners: the planner registry and the planners (unified, ch. 2), the FF heuristic
+and the incremental-SAT task planner.
+
+:data:`PLANNERS` maps a name to a :class:`PlannerSpec`: its factory and a one-line summary. The
+CLI's ``--planner`` choices, ``tmpc bench --planners`` and the registry test all read it; there
+is no other list of planners.
+
+The registry is light (the CLI's parser reads it); the planners themselves and the task planner
+are imported on first use (PEP 562 ``__getattr__`` below), so importing this package costs nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+from tmpc.lang.diagnostics import InputError, error
+
+
+@dataclass(frozen=True)
+class PlannerSpec:
+    """``factory(problem, seed, overrides)`` builds a planner with ``solve(time_limit,
+    progress=None)``; ``overrides`` are the command line's planner options (None = not given),
+    which win over the run configuration's ``[planner]`` parameters."""
+
+    factory: Callable[..., object]
+    summary: str
+
+
+def _unified(problem, seed: int, overrides: dict):
+    # imported when a planner is built: `tmpc --help` reads this registry for `--planner`'s
+    # choices and must not import numpy, JAX or Z3
+    from tmpc.runtime.planners.unified import UnifiedPlanner
+    return UnifiedPlanner.from_options(problem, seed, overrides)
+
+
+PLANNERS: dict[str, PlannerSpec] = {
+    "unified": PlannerSpec(_unified,
+                           "composite-space RRT with the Algorithm 1 sampler (thesis ch. 2, planet)"),
+}
+
+
+def make_planner(name: str, problem, seed: int = 0, overrides: Mapping | None = None):
+    """The registered planner ``name`` for ``problem``; E826 names the registry when unknown."""
+    spec = PLANNERS.get(name)
+    if spec is None:
+        raise unknown_planner(name)
+    return spec.factory(problem, seed, dict(overrides or {}))
+
+
+def unknown_planner(name: str) -> InputError:
+    return InputError(error("E826", f"unknown planner `{name}`", None,
+                            "planners: " + ", ".join(sorted(PLANNERS))))
+
+
+#: heavy names of this package, imported on first access
+_LAZY = {
+    "UnifiedPlanner": "tmpc.runtime.planners.unified", "UnifiedOptions": "tmpc.runtime.planners.unified",
+    "UnifiedResult": "tmpc.runtime.planners.unified",
+    "FFHeuristic": "tmpc.runtime.planners.heuristic",
+    "TaskPlanner": "tmpc.runtime.planners.taskplan", "simulate": "tmpc.runtime.planners.taskplan",
+    "SOLVED": "tmpc.runtime.planners.taskplan", "TIMEOUT": "tmpc.runtime.planners.taskplan",
+    "UNREACHABLE": "tmpc.runtime.planners.taskplan",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    return getattr(importlib.import_module(module), name)
+
+
+__all__ = ["PLANNERS", "PlannerSpec", "make_planner", "unknown_planner", *_LAZY]

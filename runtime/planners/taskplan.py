@@ -1,0 +1,364 @@
+"""Incremental SAT task planning on Z3 (thesis Alg. 3): the planner behind `tmpc plan` and the
+candidate task plans of the TMP planners.
+
+:class:`TaskPlanner` keeps one Z3 solver (``SolverFor("QF_FD")``) for its whole life and deepens
+the horizon one step at a time, encoding each new layer and step by instantiating the templates of
+:mod:`tmpc.compiler.smt.encode`. Before the first query it computes two kinds of redundant knowledge that
+make Z3's job much easier:
+
+* **disjoint action landmarks** (LM-cut, :mod:`tmpc.compiler.smt.bound`): their number is an
+  admissible lower bound, so horizons below it are skipped without a proof, and per horizon they
+  give counting constraints (each landmark used, at most ``slack + 1`` times);
+* **mutex pairs** (h^2, :mod:`tmpc.compiler.smt.mutex`) as binary clauses in every layer.
+
+The goal of horizon ``T`` and its counting constraints are asserted in a push/pop scope
+(``goal_mode="scope"``). Passing the goal as assumptions instead (``"assumptions"``) needs the
+horizon-specific counting constraints guarded by an assumed literal, and Z3's cardinality
+constraints lose their strength when guarded: clutter with 10 sticks takes 6 s to >60 s that way
+against 0.2-0.8 s in a scope (bench: ``tests/bench/test_bench_taskplan.py``). Constraints are only
+ever added outside the scope, so a horizon proven unsatisfiable stays so: later calls start past it.
+
+For the TMP planners (MATH.md §B):
+
+* :meth:`TaskPlanner.next_plan` — the shortest plan that satisfies everything added so far;
+* :meth:`TaskPlanner.exclude_prefix` — ``not (a^1 and ... and a^n)``: no later plan starts with
+  that prefix (its first failed transition);
+* :meth:`TaskPlanner.add_evidence` — a geometric literal's value after a prefix, pinning its
+  blocker (``geometric=True``; see the module docstring of :mod:`tmpc.compiler.smt.encode`);
+* :meth:`TaskPlanner.plans` — distinct candidate plans, shortest first.
+
+Constraints naming steps beyond the encoded horizon wait until the horizon gets there.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Iterable, Iterator
+
+from tmpc.compiler.ground import GeoLiteral, GroundAction, GroundProblem
+from tmpc.compiler.smt import Changers, Encoding, encode, lmcut, mutex_pairs, relevant_atoms
+
+GOAL_MODES = ("assumptions", "scope")
+
+#: PlanResult.status values
+SOLVED, EXHAUSTED, TIMEOUT, UNREACHABLE = "solved", "exhausted", "timeout", "unreachable"
+
+_TRUE_ACTION = re.compile(r"\(define-fun a(\d+)@(\d+) \(\) Bool\s+true\)")
+
+
+@dataclass(frozen=True)
+class HorizonStats:
+    """One horizon: what was added to the solver for it and how its goal query went."""
+
+    horizon: int
+    clauses: int            # assertions added for this horizon (its layer and step)
+    variables: int          # variables declared for it
+    encode_s: float         # building and parsing the text
+    solve_s: float          # the goal query
+    result: str             # sat | unsat | unknown
+
+
+@dataclass
+class PlanResult:
+    """``actions`` (None unless ``status == "solved"``) and the horizon: the plan length when
+    solved, else where the search stopped (``exhausted``: every horizon up to ``max_steps`` has
+    no plan; ``timeout``: the time ran out while at ``horizon``; ``unreachable``: the goal is not
+    even reachable in the delete relaxation, so no length works)."""
+
+    status: str
+    actions: list[GroundAction] | None
+    horizon: int
+    stats: list[HorizonStats] = field(default_factory=list)
+    seconds: float = 0.0
+    #: every plan length below this one is proven impossible
+    impossible_below: int = 0
+
+    @property
+    def solved(self) -> bool:
+        return self.status == SOLVED
+
+
+class TaskPlanner:
+    """Shortest sequential plans of a ground problem by incremental SAT.
+
+    ``geometric``: geometric literals of preconditions and the goal get blocker variables (TMP);
+    else they count as satisfied (classical PDDL). ``goal_mode``: ``"scope"`` (push/pop, the
+    default) or ``"assumptions"``. ``amo``: the at-most-one-action encoding (``"pb"``,
+    ``"ladder"``). ``changers``: which actions may change a geometric literal (default: those with
+    kinematic effects). ``lower_bound`` / ``mutexes``: use landmarks / h^2 mutexes (on by
+    default; off only to measure what they buy); ``analysis_budget``: seconds each of the two
+    analyses may take (landmarks stop early with what they found, mutexes are dropped).
+    """
+
+    def __init__(self, problem: GroundProblem, geometric: bool = False, *,
+                 goal_mode: str = "scope", amo: str = "pb",
+                 changers: Changers | None = None, lower_bound: bool = True,
+                 mutexes: bool = True, analysis_budget: float = 1.0):
+        import z3
+        if goal_mode not in GOAL_MODES:
+            raise ValueError(f"goal_mode must be one of {GOAL_MODES}")
+        self.z3 = z3
+        self.problem = problem
+        self.analysis_budget = analysis_budget
+        self.goal_mode = goal_mode
+        t0 = time.perf_counter()
+        self.landmarks = self._landmarks() if lower_bound else None
+        self.bound_seconds = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        self.mutexes = self._mutexes() if mutexes else None
+        self.encoding: Encoding = encode(problem, geometric, amo, changers,
+                                         self.landmarks.sets if self.landmarks else (),
+                                         self.mutexes or ())
+        self.template_seconds = time.perf_counter() - t0
+        self.solver = z3.SolverFor("QF_FD")
+        #: the last encoded layer (steps 1..layers are encoded too)
+        self.layers = -1
+        self._unsat: set[int] = set()                       # horizons proven impossible
+        self._timeout_set = False
+        self.lower_bound = self._lower_bound() if lower_bound else \
+            (None if self.encoding.goal_level is None else 0)
+        self.stats: list[HorizonStats] = []
+        self._pending: list[tuple[int, str]] = []           # (layer needed, assertions)
+        self._goals: set[int] = set()                       # horizons whose goal is declared
+        self._assumed: set[int] = set()                     # ... and asserted (assumptions)
+        self._selectors: set[int] = set()                   # declared h@n
+        self._sizes: dict[int, tuple[int, int, float]] = {}
+        self._extend_to(0)
+
+    def _mutexes(self):
+        return mutex_pairs(self.problem, relevant_atoms(self.problem),
+                           budget_s=self.analysis_budget)
+
+    def _landmarks(self):
+        return lmcut(self.problem, budget_s=self.analysis_budget)
+
+    def _lower_bound(self) -> int | None:
+        """The first horizon that may have a plan: the goal's relaxed level and the number of
+        disjoint landmarks (both admissible); None if the goal is not relaxed-reachable."""
+        level = self.encoding.goal_level
+        if level is None:
+            return None
+        return max(level, self.landmarks.bound if self.landmarks else 0)
+
+    # ---- encoding ---------------------------------------------------------------------------
+    def _extend_to(self, k: int, deadline: float | None = None) -> bool:
+        """Encode layers and steps up to ``k``; False if the deadline passed first."""
+        enc = self.encoding
+        while self.layers < k:
+            if deadline is not None and time.perf_counter() >= deadline:
+                return False
+            t0 = time.perf_counter()
+            n = self.layers + 1
+            text = enc.layer_text(n)
+            clauses, variables = enc.sizes["layer"]
+            if n == 0:
+                text += enc.init
+                clauses += enc.sizes["init"][0]
+            else:
+                text += enc.step_text(n)
+                clauses += enc.sizes["step"][0]
+                variables += enc.sizes["step"][1]
+            ready = [c for need, c in self._pending if need <= n]
+            self._pending = [(need, c) for need, c in self._pending if need > n]
+            text += "".join(ready)
+            self.solver.from_string(text)
+            self.layers = n
+            self._sizes[n] = (clauses + len(ready), variables, time.perf_counter() - t0)
+        return True
+
+    def _add(self, layer: int, clause: list[str], declare: str = "") -> None:
+        """Assert ``clause`` now, or once ``layer`` is encoded. ``declare``: declarations of the
+        variables the clause introduces."""
+        text = declare + _assert(clause)
+        if layer <= self.layers:
+            self.solver.from_string(text)
+        else:
+            self._pending.append((layer, text))
+
+    # ---- constraints from the TMP planners ----------------------------------------------------
+    def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
+        """No later plan starts with ``prefix`` (MATH.md §B plan exclusion). The empty prefix
+        excludes every plan."""
+        prefix = list(prefix)
+        self._add(len(prefix), self.encoding.prefix_clause(prefix))
+
+    def exclude_plan(self, plan: Iterable[GroundAction]) -> None:
+        """No later plan is exactly ``plan``; longer plans that start with it stay possible
+        (the clause holds only at horizon ``len(plan)``, through its selector ``h@n``)."""
+        plan = list(plan)
+        n = len(plan)
+        self._add(n, self.encoding.prefix_clause(plan) + [f"(not h@{n})"],
+                  self._declare_selector(n))
+
+    def add_evidence(self, prefix: Iterable[GroundAction], literal: GeoLiteral | tuple,
+                     value: bool) -> bool:
+        """After ``prefix``, the geometric ``literal`` ``(predicate, args, positive)`` is known
+        to hold (``value``) or not: ``(a^1 and ... and a^n) -> (not b@n and g@n = value)``.
+        Returns False (and adds nothing) if no precondition or goal uses the literal."""
+        if not self.encoding.geometric:
+            raise ValueError("evidence needs a planner built with geometric=True")
+        m = self.encoding.geo_index(literal)
+        if m is None:
+            return False
+        prefix = list(prefix)
+        for clause in self.encoding.evidence_clauses(prefix, m, value):
+            self._add(len(prefix), clause)
+        return True
+
+    # ---- solving ----------------------------------------------------------------------------
+    def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
+                  min_steps: int = 0) -> PlanResult:
+        """The shortest plan of length ``min_steps..max_steps`` satisfying everything added so
+        far; horizons already proven impossible are skipped."""
+        t0 = time.perf_counter()
+        deadline = None if time_limit is None else t0 + time_limit
+        stats: list[HorizonStats] = []
+
+        def result(status: str, k: int, plan=None) -> PlanResult:
+            return PlanResult(status, plan, k, stats, time.perf_counter() - t0,
+                              self.impossible_below())
+
+        if self.lower_bound is None:
+            return result(UNREACHABLE, 0)
+        k = max(self.lower_bound, min_steps)
+        while k <= max_steps:
+            if k in self._unsat:
+                k += 1
+                continue
+            if deadline is not None and time.perf_counter() >= deadline:
+                return result(TIMEOUT, k)
+            had = self.layers
+            if not self._extend_to(k, deadline):
+                return result(TIMEOUT, k)
+            new = [self._sizes[n] for n in range(had + 1, k + 1)]
+            answer, solve_s = self._check(k, deadline)
+            st = HorizonStats(k, sum(x[0] for x in new), sum(x[1] for x in new),
+                              sum(x[2] for x in new), solve_s, answer)
+            stats.append(st)
+            self.stats.append(st)
+            if answer == "sat":
+                return result(SOLVED, k, self._extract(k))
+            if answer == "unknown":
+                return result(TIMEOUT, k)
+            self._unsat.add(k)
+            k += 1
+        return result(EXHAUSTED, max_steps)
+
+    def impossible_below(self) -> int:
+        """Every plan length below this one is proven impossible (the lower bound, then the
+        horizons proven unsatisfiable)."""
+        if self.lower_bound is None:
+            return 1 << 30
+        k = self.lower_bound
+        while k in self._unsat:
+            k += 1
+        return k
+
+    plan = next_plan
+
+    def plans(self, max_steps: int = 200, time_limit: float | None = None,
+              min_steps: int = 0) -> Iterator[list[GroundAction]]:
+        """Distinct plans, shortest first. Each plan is excluded once the consumer asks for the
+        next one (add stronger exclusions or evidence in between)."""
+        t0 = time.perf_counter()
+        while True:
+            left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+            if left is not None and left <= 0:
+                return
+            result = self.next_plan(max_steps, left, min_steps)
+            if not result.solved:
+                return
+            yield result.actions
+            self.exclude_plan(result.actions)
+
+    def _check(self, k: int, deadline: float | None) -> tuple[str, float]:
+        """Is there a plan of horizon ``k``? The goal literals of layer ``k``, the horizon
+        selector ``h@k`` and the counting constraints of ``k`` are asserted in a scope (or
+        assumed, the constraints guarded by ``h@k``)."""
+        z3 = self.z3
+        decls, text, lits = self.encoding.goal_text(k)
+        lits = lits + [f"h@{k}"]
+        if k not in self._goals:                # Z3 keeps declarations across push/pop
+            self._goals.add(k)
+            self.solver.from_string(self._declare_selector(k) + decls)
+        if deadline is not None:
+            self.solver.set("timeout", max(1, int((deadline - time.perf_counter()) * 1000)))
+            self._timeout_set = True
+        elif self._timeout_set:
+            self.solver.set("timeout", 4294967295)
+            self._timeout_set = False
+        t0 = time.perf_counter()
+        guard = None
+        if deadline is not None:
+            # Z3's timeout is not always honoured (preprocessing large formulas): interrupt the
+            # context from a timer thread too (ctypes releases the GIL during the check)
+            guard = threading.Timer(max(0.0, deadline - t0) + 0.05, self.solver.ctx.interrupt)
+            guard.daemon = True
+            guard.start()
+        try:
+            if self.goal_mode == "scope":
+                self.solver.push()
+                self.solver.from_string(text + "".join(f"(assert {lit})" for lit in lits) +
+                                        self.encoding.landmark_text(k))
+                r = self.solver.check()
+                model = self.solver.model() if r == z3.sat else None
+                self.solver.pop()
+            else:
+                if k not in self._assumed:
+                    self._assumed.add(k)
+                    self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
+                r = self.solver.check(*[_lit_expr(z3, lit) for lit in lits])
+                model = self.solver.model() if r == z3.sat else None
+        finally:
+            if guard is not None:
+                guard.cancel()
+        self._model = model
+        return str(r), time.perf_counter() - t0
+
+    def _declare_selector(self, n: int) -> str:
+        """The declaration of ``h@n`` the first time it is needed, else nothing."""
+        if n in self._selectors:
+            return ""
+        self._selectors.add(n)
+        return f"(declare-const h@{n} Bool)"
+
+    def _extract(self, k: int) -> list[GroundAction]:
+        steps: dict[int, int] = {}
+        for m in _TRUE_ACTION.finditer(self._model.sexpr()):
+            j, s = int(m.group(1)), int(m.group(2))
+            if 1 <= s <= k:
+                steps[s] = j
+        if sorted(steps) != list(range(1, k + 1)):
+            raise RuntimeError(f"the model of horizon {k} does not give one action per step")
+        return [self.problem.actions[steps[s]] for s in range(1, k + 1)]
+
+
+def _assert(clause: list[str]) -> str:
+    if not clause:
+        return "(assert false)"
+    return f"(assert {clause[0]})" if len(clause) == 1 else f"(assert (or {' '.join(clause)}))"
+
+
+def _lit_expr(z3, lit: str):
+    if lit.startswith("(not "):
+        return z3.Not(z3.Bool(lit[5:-1]))
+    return z3.Bool(lit)
+
+
+def simulate(problem: GroundProblem, plan: list[GroundAction]) -> tuple[bool, str]:
+    """Replay ``plan`` from the initial state (geometry satisfied): (ok, what failed)."""
+    state = problem.init
+    for k, a in enumerate(plan, start=1):
+        if not problem.applicable(state, a):
+            return False, f"step {k}: {a.name} is not applicable"
+        state = problem.apply(state, a)
+    if not problem.goal_satisfied(state):
+        return False, "the goal does not hold at the end"
+    return True, ""
+
+
+__all__ = ["TaskPlanner", "PlanResult", "HorizonStats", "simulate", "SOLVED", "EXHAUSTED",
+           "TIMEOUT", "UNREACHABLE"]

@@ -1,0 +1,298 @@
+"""A task-and-motion problem ready for the planners: the world, its ground symbolic problem, the
+compiled kernels and the collision checker, with the operations every TMP planner needs.
+
+* **Modes** (thesis ch. 2 §2.3): a symbolic state (an ``int`` bitset of the ground problem) plus
+  a *pose set*: where the free objects are and which robot frame holds which object (with the
+  grasp transform). :meth:`TmpProblem.successor_mode` applies an action at a configuration:
+  discrete effects by the ground problem, kinematic ``link``/``unlink`` effects by forward
+  kinematics at that configuration (an object keeps its world pose when grasped or released).
+* **Projection** onto an action's geometric precondition (or the goal's), in a mode, from a batch
+  of start configurations, with the compiler's projection sampler; one jitted projector per action
+  schema (arguments are bound at call time, so nothing recompiles per ground action).
+* **Validity**: collision checks of states and straight motions in a mode (held objects move with
+  their frame; objects are checked against the robot and against each other).
+
+The checks of *why* a problem cannot be planned — a start in collision, an object in the PDDL but
+not in the scene, a symbolic goal unreachable even in the delete relaxation — raise clear errors
+(E820–E829) before any sampling.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tmpc.compiler.compile import compile_world
+from tmpc.compiler.ground import geo_atoms
+from tmpc.compiler.kernels import make_projector, state_inputs
+from tmpc.compiler.state import WorldState, grasp, initial_state, release
+from tmpc.lang.diagnostics import InputError, error
+from tmpc.lang.world import collision_tolerance
+from tmpc.runtime.collision import PAD_SIZES, collision_world
+
+#: projection starts per call (a fixed batch shape: the projector compiles once per schema)
+PROJECTION_BATCH = 16
+
+
+@dataclass(eq=False)
+class Mode:
+    """A mode: symbolic state ``sym`` and pose set; ``parent``/``action`` record how it was
+    first reached (None for the initial mode)."""
+
+    id: int
+    sym: int
+    poses: dict[str, np.ndarray]
+    held: dict[str, tuple[str, np.ndarray]]
+    parent: int | None = None
+    action: object | None = None
+    obj_T: np.ndarray | None = field(default=None, repr=False)
+    obj_parent: np.ndarray | None = field(default=None, repr=False)
+
+
+@dataclass
+class Timers:
+    """Seconds spent per activity (the time split `tmpc run -v` and `tmpc bench` report)."""
+
+    projection: float = 0.0
+    collision: float = 0.0
+    heuristic: float = 0.0
+    sampling: float = 0.0
+    compile: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {k: round(v, 4) for k, v in vars(self).items()}
+
+
+class TmpProblem:
+    """Everything a TMP planner needs about one problem (see the module docstring)."""
+
+    def __init__(self, world, tolerance: float | None = None, iterations: int = 15):
+        if world.program is None or world.program.problem is None:
+            raise InputError(error("E820", "`tmpc run` needs a domain and a problem: give a run "
+                                   "configuration (manifest TOML, planet TOML, tmit-star spec)",
+                                   None))
+        self.compiled = compile_world(world)
+        if self.compiled.model is None:
+            raise InputError(error("E821", "the scene has no robot to plan for", None))
+        self.world = world
+        self.model = self.compiled.model
+        self.timers = Timers()
+        self.iterations = iterations
+        self.ground = self.compiled.ground
+        self._check_objects()
+        self.tolerance = collision_tolerance(world.config) if tolerance is None else tolerance
+        t = time.perf_counter()
+        self.collision = collision_world(world, self.compiled, self.tolerance)
+        self.timers.compile += time.perf_counter() - t
+        s0 = initial_state(world.scene, self.model)
+        self.q0 = np.asarray(s0.q, float)
+        self.initial = self.make_mode(0, self.ground.init, s0.poses, s0.held)
+        self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
+        self.wraps = np.asarray(self.model.wraps, bool)
+        self._projectors: dict[str, tuple] = {}
+        self._goal = None
+
+    # ---- checks before planning ----------------------------------------------------------------
+    def _check_objects(self) -> None:
+        """Every object a geometric atom names must be a scene object or a robot frame."""
+        world = self.compiled.tables
+        missing = sorted({a for g in self.ground.geometric for a in g.args
+                          if world.entity(a) is None})
+        if missing:
+            prob = self.world.program.problem
+            raise InputError(error(
+                "E822", (f"objects {', '.join(missing)} of the problem appear in geometric "
+                         "atoms but are neither scene objects nor robot frames"
+                         if len(missing) > 1 else
+                         f"object {missing[0]} of the problem appears in geometric atoms but is "
+                         "neither a scene object nor a robot frame"),
+                prob.span, "add them to the scene, or check the spelling against the scene file"),
+                self.world.files)
+
+    def check_start(self) -> None:
+        """The start must be collision-free; name the colliding pairs otherwise (E823)."""
+        rep = self.collision.check(self.q0, poses=self.initial.poses, attached=self.initial.held)
+        if not rep.valid:
+            pairs = ", ".join(f"{a} with {b} ({d * 1000:.1f} mm)" for a, b, d in rep.pairs[:5])
+            raise InputError(error("E823", f"the start state is in collision: {pairs}",
+                                   None, "move the robot or the objects in the scene, or "
+                                   "allow deeper contact: a native manifest's [planner] "
+                                   f"collision_tolerance (now {self.tolerance} m)"))
+
+    def check_goal_reachable(self) -> None:
+        if not self.ground.goal_relaxed_reachable:
+            goal = self.world.program.problem.goal
+            raise InputError(error(
+                "E824", "the goal is unreachable: even ignoring delete effects and geometry, no "
+                "sequence of actions makes it true", getattr(goal, "span", None),
+                "check the goal atoms and the actions that add them (`tmpc plan` on the domain "
+                "and problem shows the symbolic side alone)"), self.world.files)
+
+    def warm_up(self, rng: np.random.Generator) -> float:
+        """Trace and compile what planning will call (every action schema's projector at the
+        projection batch shape, the goal's, the collision first pass at the batch shapes it
+        uses), so planning time is planning; returns the seconds spent (also in ``compile``)."""
+        t = time.perf_counter()
+        starts = self.uniform(rng, PROJECTION_BATCH)
+        mode = self.initial
+        for action in {a.schema: a for a in self.ground.actions
+                       if self.has_geometry(a)}.values():
+            formula, proj, _ = self.projector(action.schema)
+            args = self.compiled.bind_args(formula, list(action.args))
+            np.asarray(proj(starts, mode.obj_T, mode.obj_parent, args)[0])
+        if self.goal_formula() is not None:
+            np.asarray(self.goal_formula()[1](starts, mode.obj_T, mode.obj_parent,
+                                              np.zeros(0, np.int64))[0])
+        fp = self.collision.first_pass()
+        if fp is not None:
+            effects = [e for a in self.ground.actions
+                       for e in (*a.kinematic, *(k for ce in a.conditional for k in ce.kinematic))]
+            fp.reserve({f for f in (self.model.frame(e.parent) for e in effects)
+                        if f is not None})
+        for n in PAD_SIZES:
+            self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
+                                       attached=mode.held)
+        spent = time.perf_counter() - t
+        self.timers.compile += spent
+        return spent
+
+    # ---- modes -----------------------------------------------------------------------------------
+    def make_mode(self, mode_id: int, sym: int, poses, held, parent=None, action=None) -> Mode:
+        _, obj_T, obj_parent = state_inputs(self.compiled.tables,
+                                            WorldState(self.q0, poses, held))
+        return Mode(mode_id, sym, poses, held, parent, action, obj_T, obj_parent)
+
+    def successor_mode(self, mode: Mode, action, q: np.ndarray, mode_id: int) -> Mode:
+        """The mode after ``action`` at configuration ``q`` in ``mode``."""
+        geo = self.geo_oracle(mode, q) if _needs_geo(action) else None
+        sym = self.ground.apply(mode.sym, action, geo)
+        state = WorldState(q, dict(mode.poses), dict(mode.held))
+        effects = self.ground.kinematic_effects(mode.sym, action, geo)
+        if effects:
+            frames = self.compiled.fk(q)
+            for eff in effects:
+                if eff.op == "link":
+                    state = grasp(state, self.model, eff.parent, eff.child, frames)
+                elif eff.child in state.held:
+                    state = release(state, self.model, eff.child, frames)
+        return self.make_mode(mode_id, sym, state.poses, state.held, mode.id, action)
+
+    # ---- geometry --------------------------------------------------------------------------------
+    def projector(self, schema: str):
+        """(formula, jitted projector, truth kernel) of an action schema's geometric condition."""
+        if schema not in self._projectors:
+            t = time.perf_counter()
+            formula = self.compiled.action(schema)
+            kernel, _ = self.compiled.kernels(formula)
+            proj = make_projector(kernel, self.lower, self.upper, iterations=self.iterations)
+            self._projectors[schema] = (formula, proj, kernel)
+            self.timers.compile += time.perf_counter() - t
+        return self._projectors[schema]
+
+    def goal_formula(self):
+        """(formula, projector, kernel) of the goal's geometric literals, None if it has none."""
+        if self._goal is None:
+            formula = self.compiled.goal
+            if formula is None:
+                self._goal = (None,)
+            else:
+                kernel, _ = self.compiled.kernels(formula)
+                self._goal = (formula, make_projector(kernel, self.lower, self.upper,
+                                                      iterations=self.iterations), kernel)
+        return None if self._goal[0] is None else self._goal
+
+    def has_geometry(self, action) -> bool:
+        """Does ``action``'s precondition have geometric literals the projector must satisfy?"""
+        if action.pre_geometric:
+            return True
+        return action.pre.extra is not None and _has_geo(action.pre.extra)
+
+    def project(self, mode: Mode, action, starts: np.ndarray) -> np.ndarray:
+        """Configurations (k, n) from ``starts`` where ``action``'s geometric precondition (the
+        goal's, for ``action=None``) holds in ``mode`` and that are collision-free."""
+        if action is None:
+            goal = self.goal_formula()
+            if goal is None:
+                return starts[:1]
+            _, proj, _ = goal
+            args = np.zeros(0, np.int64)
+        else:
+            formula, proj, _ = self.projector(action.schema)
+            args = self.compiled.bind_args(formula, list(action.args))
+        t = time.perf_counter()
+        Q, holds, _ = proj(starts, mode.obj_T, mode.obj_parent, args)
+        Q, holds = np.asarray(Q), np.asarray(holds)
+        self.timers.projection += time.perf_counter() - t
+        Q = Q[holds]
+        if not len(Q):
+            return Q
+        return Q[self.valid_batch(mode, Q)]
+
+    def holds(self, mode: Mode, action, q: np.ndarray) -> bool:
+        """Does ``action``'s geometric precondition (the goal's for None) hold at ``q``?"""
+        if action is None:
+            goal = self.goal_formula()
+            if goal is None:
+                return True
+            kernel, args = goal[2], np.zeros(0, np.int64)
+        else:
+            formula, _, kernel = self.projector(action.schema)
+            args = self.compiled.bind_args(formula, list(action.args))
+        truth, _ = kernel(q, mode.obj_T, mode.obj_parent, args)
+        return bool(truth)
+
+    def geo_oracle(self, mode: Mode, q: np.ndarray):
+        """``geo(predicate, args) -> bool`` at ``q`` in ``mode`` (for conditional effects and
+        derived predicates over geometry)."""
+        def geo(pred: str, args: tuple[str, ...]) -> bool:
+            formula = self.compiled.predicate(pred)
+            kernel, _ = self.compiled.kernels(formula)
+            ids = self.compiled.bind_args(formula, list(args))
+            return bool(kernel(q, mode.obj_T, mode.obj_parent, ids)[0])
+        return geo
+
+    def valid_batch(self, mode: Mode, Q: np.ndarray) -> np.ndarray:
+        t = time.perf_counter()
+        ok = np.asarray(self.collision.check_batch(Q, poses=mode.poses, attached=mode.held))
+        self.timers.collision += time.perf_counter() - t
+        return ok
+
+    def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray, resolution: float):
+        """Fraction of the straight motion q0 -> q1 that is valid: 1.0 when all of it is, else
+        the parameter of the last valid state before the first collision (0.0: none)."""
+        t = time.perf_counter()
+        rep = self.collision.check_motion(q0, q1, resolution, poses=mode.poses,
+                                          attached=mode.held, details=False)
+        self.timers.collision += time.perf_counter() - t
+        if rep.valid:
+            return 1.0
+        return max(0.0, rep.t_first_collision - 1.0 / max(rep.steps, 1))
+
+    def uniform(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return rng.uniform(self.lower, self.upper, (n, len(self.lower)))
+
+    def difference(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``Q - q`` with wrapping coordinates (yaw, continuous joints) the short way round."""
+        d = np.asarray(Q) - q
+        d[..., self.wraps] = (d[..., self.wraps] + np.pi) % (2 * np.pi) - np.pi
+        return d
+
+    def distance(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(self.difference(Q, q), axis=-1)
+
+    def wrap(self, Q: np.ndarray) -> np.ndarray:
+        """Wrapping coordinates brought into their bounds."""
+        Q = np.array(Q, float)
+        w = self.wraps
+        Q[..., w] = (Q[..., w] + np.pi) % (2 * np.pi) - np.pi
+        return np.clip(Q, self.lower, self.upper)
+
+
+def _needs_geo(action) -> bool:
+    return any(ce.condition is not None and _has_geo(ce.condition) for ce in action.conditional)
+
+
+def _has_geo(f) -> bool:
+    return next(geo_atoms(f), None) is not None

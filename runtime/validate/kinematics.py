@@ -1,0 +1,321 @@
+"""The validator's own robot model and forward kinematics, independent of :mod:`tmpc.compiler.robot`.
+
+The URDF is read here with yourdfpy directly (not through :mod:`tmpc.lang.world.robot`'s tree), and
+link poses come from pinocchio (``buildModelFromUrdf`` + ``framesForwardKinematics``), the same
+independent implementation ``tests/test_fk.py`` checks the JAX kinematics against. Without
+pinocchio, yourdfpy's own scene-graph kinematics (``update_cfg`` / ``get_transform``) stand in;
+both are independent of the planner's generated JAX code.
+
+The robot's root link is placed at a world pose given per state (the plan's ``base_pose``): the
+validator never reconstructs it from (x, y, yaw) except to interpolate a motion
+(:func:`planar_base`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+# Quaternion <-> matrix conversion is arithmetic, not kinematics: the validator shares numpy's
+# one copy (tmpc.compiler.rotations imports numpy only, nothing of the planner or JAX) and
+# re-exports it through tmpc.runtime.validate. Its forward kinematics (below) stays its own
+# (pinocchio / yourdfpy), independent of tmpc.compiler.robot.
+from tmpc.compiler.rotations import quat_matrix as quat_matrix
+from tmpc.compiler.rotations import quat_of as quat_of
+from tmpc.lang.world import find_file, load_urdf
+
+
+@dataclass(frozen=True)
+class UJoint:
+    name: str
+    type: str                   # revolute continuous prismatic fixed (floating/planar: rejected)
+    parent: str
+    child: str
+    origin: np.ndarray          # (4, 4) T_parent_joint
+    axis: np.ndarray            # (3,) unit
+    lower: float | None
+    upper: float | None
+    mimic: tuple[str, float, float] | None    # (source joint, multiplier, offset)
+
+    @property
+    def movable(self) -> bool:
+        return self.type in ("revolute", "continuous", "prismatic")
+
+
+@dataclass(frozen=True)
+class UGeom:
+    """A collision or visual element: ``kind`` box (``size`` full extents), sphere, cylinder,
+    mesh (``path``, ``scale``); ``origin`` T_link_geom; ``rgba`` for visuals."""
+
+    kind: str
+    origin: np.ndarray
+    size: tuple[float, ...] = ()
+    radius: float = 0.0
+    length: float = 0.0
+    path: Path | None = None
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    uri: str = ""
+    rgba: tuple[float, float, float, float] | None = None
+
+
+@dataclass
+class RobotDescription:
+    """A URDF as the validator reads it (yourdfpy, without tmpc's KinematicTree)."""
+
+    path: str
+    name: str
+    root: str
+    links: list[str]
+    joints: list[UJoint]
+    collision: dict[str, list[UGeom]] = field(default_factory=dict)
+    visual: dict[str, list[UGeom]] = field(default_factory=dict)
+    #: mesh URIs that could not be resolved to a file (collision elements left out)
+    missing_meshes: list[str] = field(default_factory=list)
+
+    def joint(self, name: str) -> UJoint | None:
+        return self._joints.get(name)
+
+    def __post_init__(self):
+        self._joints = {j.name: j for j in self.joints}
+        self.parent_joint = {j.child: j for j in self.joints}
+
+
+def urdf_path(scene) -> str:
+    """The resolved path of the scene's robot URDF (``package://`` and $TMPC_MESH_PATH)."""
+    from pathlib import Path
+    return load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False).path
+
+
+def read_urdf(path: str | Path) -> RobotDescription:
+    """Read a resolved URDF file with yourdfpy; mesh URIs resolved as tmpc resolves them."""
+    import yourdfpy
+    path = Path(path)
+    urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+                              build_collision_scene_graph=False, load_collision_meshes=False)
+    robot = urdf.robot
+    materials = {m.name: m for m in (robot.materials or []) if m.name}
+    joints = []
+    for j in robot.joints:
+        axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), float)
+        n = np.linalg.norm(axis)
+        lim = j.limit
+        bounded = lim is not None and j.type != "continuous"
+        lo = float(lim.lower) if bounded and lim.lower is not None else None
+        hi = float(lim.upper) if bounded and lim.upper is not None else None
+        mimic = None if j.mimic is None else (
+            j.mimic.joint, float(1.0 if j.mimic.multiplier is None else j.mimic.multiplier),
+            float(j.mimic.offset or 0.0))
+        joints.append(UJoint(j.name, j.type, j.parent, j.child,
+                             np.asarray(j.origin if j.origin is not None else np.eye(4), float),
+                             axis / n if n > 0 else np.array([1.0, 0.0, 0.0]), lo, hi, mimic))
+    children = {j.child for j in joints}
+    links = [lk.name for lk in robot.links]
+    root = next((n for n in links if n not in children), links[0])
+    desc = RobotDescription(str(path), robot.name or path.stem, root, links, joints)
+    for lk in robot.links:
+        desc.collision[lk.name] = [g for g in (_geom(c, path.parent, desc, None, materials)
+                                               for c in lk.collisions) if g is not None]
+        desc.visual[lk.name] = [g for g in (_geom(v, path.parent, desc, v.material, materials)
+                                            for v in lk.visuals) if g is not None]
+    return desc
+
+
+def _geom(el, base: Path, desc: RobotDescription, material, materials) -> UGeom | None:
+    g = el.geometry
+    T = np.asarray(el.origin if el.origin is not None else np.eye(4), float)
+    rgba = None
+    if material is not None:
+        m = material if material.color is not None else materials.get(material.name)
+        if m is not None and m.color is not None:
+            rgba = tuple(float(c) for c in m.color.rgba)
+    if g.box is not None:
+        return UGeom("box", T, size=tuple(float(v) for v in g.box.size), rgba=rgba)
+    if g.sphere is not None:
+        return UGeom("sphere", T, radius=float(g.sphere.radius), rgba=rgba)
+    if g.cylinder is not None:
+        return UGeom("cylinder", T, radius=float(g.cylinder.radius),
+                     length=float(g.cylinder.length), rgba=rgba)
+    if g.mesh is not None:
+        found = find_file(g.mesh.filename, base)
+        if found is None:
+            desc.missing_meshes.append(g.mesh.filename)
+            return None
+        s = g.mesh.scale
+        scale = (1.0, 1.0, 1.0) if s is None else (
+            tuple(float(v) for v in s) if hasattr(s, "__len__") else (float(s),) * 3)
+        return UGeom("mesh", T, path=found, scale=scale, uri=g.mesh.filename, rgba=rgba)
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+# joint values
+
+
+def full_joint_values(desc: RobotDescription, values: dict[str, float]) -> dict[str, float]:
+    """Every movable joint's value: ``values`` for the independent ones (missing: 0), mimic
+    joints from their source (chains followed)."""
+    out: dict[str, float] = {}
+
+    def value(name: str, depth: int = 0) -> float:
+        if name in out:
+            return out[name]
+        j = desc.joint(name)
+        if j is not None and j.mimic is not None and depth < 32:
+            src, mult, off = j.mimic
+            v = mult * value(src, depth + 1) + off
+        else:
+            v = float(values.get(name, 0.0))
+        out[name] = v
+        return v
+    for j in desc.joints:
+        if j.movable:
+            value(j.name)
+    return out
+
+
+def wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def planar_base(T0: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
+    """The base pose with T0's height and tilt, at (x, y) and heading ``yaw`` (the x axis's angle
+    in the world xy plane)."""
+    yaw0 = heading(T0)
+    c, s = math.cos(yaw - yaw0), math.sin(yaw - yaw0)
+    T = np.eye(4)
+    T[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ T0[:3, :3]
+    T[:3, 3] = (x, y, T0[2, 3])
+    return T
+
+
+def heading(T: np.ndarray) -> float:
+    return math.atan2(T[1, 0], T[0, 0])
+
+
+# ---------------------------------------------------------------------------------------------
+# forward kinematics
+
+
+class Kinematics:
+    """``poses(T_world_root, values) -> (L, 4, 4)`` world poses of ``desc.links`` (in order);
+    ``values``: every movable joint (see :func:`full_joint_values`)."""
+
+    def __init__(self, desc: RobotDescription, backend: str | None = None):
+        self.desc = desc
+        self.index = {n: i for i, n in enumerate(desc.links)}
+        if backend is None:
+            try:
+                import pinocchio  # noqa: F401
+                backend = "pinocchio"
+            except ImportError:
+                backend = "yourdfpy"
+        self.backend = backend
+        if backend == "pinocchio":
+            self._init_pinocchio()
+        else:
+            self._init_yourdfpy()
+
+    def _init_pinocchio(self) -> None:
+        import pinocchio as pin
+        self._pin = pin
+        self._model = pin.buildModelFromUrdf(self.desc.path)
+        self._data = self._model.createData()
+        self._frames = [self._model.getFrameId(n, pin.BODY) for n in self.desc.links]
+        self._slots = []
+        for jid in range(1, self._model.njoints):
+            jm = self._model.joints[jid]
+            self._slots.append((self._model.names[jid], jm.idx_q, jm.nq))
+        self._q = pin.neutral(self._model)
+
+    def _init_yourdfpy(self) -> None:
+        import yourdfpy
+        self._urdf = yourdfpy.URDF.load(self.desc.path, build_scene_graph=True, load_meshes=False,
+                                        build_collision_scene_graph=False,
+                                        load_collision_meshes=False)
+
+    def poses(self, T_root: np.ndarray, values: dict[str, float]) -> np.ndarray:
+        out = np.empty((len(self.desc.links), 4, 4))
+        if self.backend == "pinocchio":
+            q = self._q.copy()
+            for name, i, nq in self._slots:
+                v = values.get(name, 0.0)
+                if nq == 2:
+                    q[i], q[i + 1] = math.cos(v), math.sin(v)
+                else:
+                    q[i] = v
+            self._pin.framesForwardKinematics(self._model, self._data, q)
+            oMf = self._data.oMf
+            for k, fid in enumerate(self._frames):
+                out[k] = oMf[fid].homogeneous
+        else:
+            u = self._urdf
+            u.update_cfg({n: values.get(n, 0.0) for n in u.actuated_joint_names})
+            for k, name in enumerate(self.desc.links):
+                out[k] = u.get_transform(name, self.desc.root)
+        return np.einsum("ij,ljk->lik", T_root, out)
+
+
+# ---------------------------------------------------------------------------------------------
+# the scene's start and straight motions
+
+
+def scene_defaults(desc: RobotDescription, spec) -> tuple[dict[str, float], set[str]]:
+    """(value of every independent movable joint at the scene's start, the controllable ones).
+    Controllable joints are clipped into their limits (continuous ones into [-pi, pi]); others
+    keep the scene's value (unset: 0 clipped into the limits)."""
+    given = dict(spec.joint_values)
+    free = [j for j in desc.joints if j.movable and j.mimic is None]
+    ctrl = set(spec.controllable) if spec.controllable is not None else {j.name for j in free}
+    out = {}
+    for j in free:
+        lo = j.lower if j.lower is not None else -math.inf
+        hi = j.upper if j.upper is not None else math.inf
+        if j.name in ctrl and (j.type == "continuous" or j.lower is None or j.upper is None):
+            lo, hi = -math.pi, math.pi
+        v = given.get(j.name, 0.0)
+        out[j.name] = min(max(v, lo), hi) if (j.name in ctrl or j.name not in given) else v
+    return out, ctrl
+
+
+def joint_delta(desc: RobotDescription | None, name: str, b: float, a: float) -> float:
+    """b - a; continuous joints the short way round."""
+    j = desc.joint(name) if desc is not None else None
+    return wrap_angle(b - a) if j is not None and j.type == "continuous" else b - a
+
+
+@dataclass
+class Motion:
+    """The straight configuration-space motion between two (joint values, root pose) pairs: joints
+    linearly (continuous ones the short way), a mobile base in x, y and heading (the short way),
+    keeping the first pose's height and tilt. ``span``: the largest coordinate change."""
+
+    names: list[str]
+    start: np.ndarray
+    delta: np.ndarray
+    T0: np.ndarray
+    base: np.ndarray             # (x, y, heading) at the start
+    base_delta: np.ndarray
+    mobile: bool
+    span: float
+
+    def at(self, t: float) -> tuple[dict[str, float], np.ndarray]:
+        values = dict(zip(self.names, self.start + t * self.delta))
+        if not self.mobile:
+            return values, self.T0
+        x, y, h = self.base + t * self.base_delta
+        return values, planar_base(self.T0, x, y, h)
+
+
+def straight_motion(desc, mobile: bool, va: dict, Ta: np.ndarray, vb: dict,
+                    Tb: np.ndarray) -> Motion:
+    names = sorted(set(va) | set(vb))
+    start = np.array([va.get(n, 0.0) for n in names])
+    delta = np.array([joint_delta(desc, n, vb.get(n, 0.0), va.get(n, 0.0)) for n in names])
+    base = np.array([Ta[0, 3], Ta[1, 3], heading(Ta)])
+    bd = np.array([Tb[0, 3] - Ta[0, 3], Tb[1, 3] - Ta[1, 3], wrap_angle(heading(Tb) - base[2])]) \
+        if mobile else np.zeros(3)
+    span = float(max(np.abs(delta).max(initial=0.0), np.abs(bd).max()))
+    return Motion(names, start, delta, Ta, base, bd, mobile, span)

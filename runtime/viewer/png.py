@@ -1,0 +1,229 @@
+"""The plan snapshot: a PNG of the robot and the objects near it at one state, drawn by a small
+numpy z-buffer rasterizer (:func:`render`: perspective, flat shading like the page, 2x
+supersampling) over a checkered floor, titled with the state's action; Pillow writes the file.
+
+matplotlib's ``Poly3DCollection`` was tried first: its per-polygon depth sort drew a table top
+over the thin tray lying on it, and subdividing faces to help it left seams.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+
+import numpy as np
+
+from tmpc.lang.diagnostics import InputError, error
+from tmpc.lang.fileio import atomic_write_bytes
+from tmpc.lang.source import SourceFile
+from tmpc.runtime.plans import Plan, parse_plan
+from tmpc.runtime.validate import heading
+from tmpc.runtime.viewer.scene import Poser, Scene3D
+
+#: triangles per mesh file in the snapshot
+PNG_FACES = 500
+#: the camera looks from this angle (rad) relative to the robot's heading: behind, to its right
+CAMERA_YAW = -2.2
+BACKGROUND = (0.933, 0.941, 0.953)
+
+
+def write_png(world, plan_dict, path, state_index: int | None = None,
+              size: tuple[int, int] = (1200, 900)) -> None:
+    """A PNG of the robot and objects at one state (default: the last), ``size`` = (width,
+    height) pixels: the robot and the objects near it, seen from its front right."""
+    plan = _as_plan(plan_dict)
+    n = len(plan.states)
+    i = n - 1 if state_index is None else state_index
+    if not -n <= i < n:
+        raise InputError(error("E814", f"--state {state_index}: the plan has states 0 to "
+                               f"{n - 1}", None))
+    i %= n
+    poser = Poser(world, PNG_FACES)
+    st = poser.resolve(plan)[i]
+    P = poser.node_poses(st["links"], st["objects"])
+    tris, cols = _triangles(poser.scene3d, P, _near_robot(poser, P))
+    floor, fcols = _floor(tris)
+    az = heading(st["T_root"]) + CAMERA_YAW
+    img = render(np.concatenate([floor, tris]), np.concatenate([fcols, cols]), size, az,
+                 math.radians(26), frame=tris)
+    _save_png(img, _png_title(plan, i, n), path)
+
+
+def _png_title(plan, i: int, n: int) -> str:
+    st = plan.states[i]
+    if st.action_text:
+        return f"state {i} of {n - 1}: {st.action_text}"
+    before = next((s.action_text for s in reversed(plan.states[:i]) if s.action_text), None)
+    return f"state {i} of {n - 1}" + (f" (after {before})" if before else " (start)")
+
+
+def _near_robot(poser: "Poser", P: np.ndarray, margin: float = 1.0) -> set[int]:
+    """Nodes to draw: the robot's, and objects within ``margin`` (xy) of the robot's box (all
+    objects when there is no robot)."""
+    s = poser.scene3d
+    robot = set(poser.link_nodes.values())
+    if not robot:
+        return set(range(len(s.nodes)))
+    pts = _part_points(s, P, robot)
+    lo, hi = pts.min(0) - margin, pts.max(0) + margin
+    keep = set(robot)
+    for k in poser.object_nodes.values():
+        q = _part_points(s, P, {k})
+        if len(q) and np.all(q.max(0)[:2] >= lo[:2]) and np.all(q.min(0)[:2] <= hi[:2]):
+            keep.add(k)
+    return keep
+
+
+def _part_points(s: "Scene3D", P: np.ndarray, nodes: set[int]) -> np.ndarray:
+    pts = []
+    for p in s.parts:
+        if p.node in nodes:
+            T = P[p.node] @ p.local
+            pts.append(p.mesh.vertices @ T[:3, :3].T + T[:3, 3])
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def _triangles(s: Scene3D, P: np.ndarray, nodes: set[int]):
+    """World triangles (T, 3, 3) and base colours (T, 3) of the parts of ``nodes``."""
+    tris, cols = [], []
+    for p in s.parts:
+        if p.node in nodes:
+            T = P[p.node] @ p.local
+            v = p.mesh.vertices @ T[:3, :3].T + T[:3, 3]
+            tris.append(v[p.mesh.faces])
+            cols.append(np.broadcast_to(np.asarray(p.mesh.color, float), (len(p.mesh.faces), 3)))
+    if not tris:
+        return np.zeros((0, 3, 3)), np.zeros((0, 3))
+    return np.concatenate(tris), np.concatenate(cols)
+
+
+def _floor(tris: np.ndarray, n: int = 14):
+    """A checkered floor under the drawn triangles (two triangles per tile)."""
+    pts = tris.reshape(-1, 3) if len(tris) else np.zeros((1, 3))
+    lo, hi = pts.min(0), pts.max(0)
+    pad = 0.25 * max(float((hi - lo)[:2].max()), 1.0)
+    xs = np.linspace(lo[0] - pad, hi[0] + pad, n + 1)
+    ys = np.linspace(lo[1] - pad, hi[1] + pad, n + 1)
+    z = min(0.0, lo[2]) - 1e-3
+    out, cols = [], []
+    for a in range(n):
+        for b in range(n):
+            p00, p10 = (xs[a], ys[b], z), (xs[a + 1], ys[b], z)
+            p11, p01 = (xs[a + 1], ys[b + 1], z), (xs[a], ys[b + 1], z)
+            c = (0.86, 0.87, 0.89) if (a + b) % 2 else (0.79, 0.8, 0.83)
+            out += [(p00, p10, p11), (p00, p11, p01)]
+            cols += [c, c]
+    return np.array(out, float), np.array(cols, float)
+
+
+def render(tris: np.ndarray, cols: np.ndarray, size: tuple[int, int], azimuth: float,
+           elevation: float, fov: float = math.radians(32), supersample: int = 2,
+           frame: np.ndarray | None = None) -> np.ndarray:
+    """A z-buffered perspective picture (H, W, 3) uint8 of triangles (T, 3, 3) with base colours
+    (T, 3), flat-shaded like the page (two lights, ambient, a little headlight), seen from the
+    direction (azimuth, elevation) at the distance that frames ``frame`` (default: all the
+    triangles); anti-aliased by supersampling."""
+    W, H = size[0] * supersample, size[1] * supersample
+    pts = (tris if frame is None or not len(frame) else frame).reshape(-1, 3)
+    d = np.array([math.cos(elevation) * math.cos(azimuth),
+                  math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
+    f = -d
+    side = np.cross(f, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    up = np.cross(side, f)
+    center = (pts.min(0) + pts.max(0)) / 2
+    rel = pts - center
+    x, y, z = rel @ side, rel @ up, rel @ f
+    center = center + side * (x.max() + x.min()) / 2 + up * (y.max() + y.min()) / 2
+    hx, hy = (x.max() - x.min()) / 2, (y.max() - y.min()) / 2
+    t = math.tan(fov / 2)
+    dist = max(hy / t, hx / (t * W / H)) * 1.08 - z.min()
+    eye = center - f * dist
+    rel = tris - eye
+    cx, cy, cz = rel @ side, rel @ up, rel @ f                    # (T, 3) each
+    keep = cz.min(1) > 1e-3
+    tris, cols, cx, cy, cz = tris[keep], cols[keep], cx[keep], cy[keep], cz[keep]
+    focal = (H / 2) / t
+    sx, sy = W / 2 + focal * cx / cz, H / 2 - focal * cy / cz
+    shade = _shade(tris, eye)
+    rgb = np.clip(cols * shade[:, None], 0.0, 1.0)
+    img = np.empty((H, W, 3))
+    img[:] = BACKGROUND
+    zbuf = np.zeros((H, W))                                      # 1/depth: larger is nearer
+    inv = 1.0 / cz
+    x0 = np.clip(np.floor(sx.min(1)), 0, W).astype(int)
+    x1 = np.clip(np.ceil(sx.max(1)) + 1, 0, W).astype(int)
+    y0 = np.clip(np.floor(sy.min(1)), 0, H).astype(int)
+    y1 = np.clip(np.ceil(sy.max(1)) + 1, 0, H).astype(int)
+    for k in np.nonzero((x1 > x0) & (y1 > y0))[0]:
+        px = np.arange(x0[k], x1[k]) + 0.5
+        py = (np.arange(y0[k], y1[k]) + 0.5)[:, None]
+        (ax, bx, qx), (ay, by, qy) = sx[k], sy[k]
+        area = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+        if abs(area) < 1e-12:
+            continue
+        w0 = ((bx - px) * (qy - py) - (by - py) * (qx - px)) / area
+        w1 = ((qx - px) * (ay - py) - (qy - py) * (ax - px)) / area
+        w2 = 1.0 - w0 - w1
+        inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
+        if not inside.any():
+            continue
+        depth = w0 * inv[k, 0] + w1 * inv[k, 1] + w2 * inv[k, 2]
+        zb = zbuf[y0[k]:y1[k], x0[k]:x1[k]]
+        win = inside & (depth > zb)
+        zb[win] = depth[win]
+        img[y0[k]:y1[k], x0[k]:x1[k]][win] = rgb[k]
+    if supersample > 1:
+        img = img.reshape(size[1], supersample, size[0], supersample, 3).mean((1, 3))
+    return np.round(img * 255).astype(np.uint8)
+
+
+def _shade(tris: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """Per-face brightness: normals turned toward the eye, the page's two lights."""
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    v = eye - tris.mean(1)
+    v /= np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-12)
+    n *= np.where((n * v).sum(1) < 0, -1.0, 1.0)[:, None]
+    l1 = np.array([0.35, -0.45, 0.82])
+    l2 = np.array([-0.6, 0.5, 0.35])
+    l1, l2 = l1 / np.linalg.norm(l1), l2 / np.linalg.norm(l2)
+    return 0.32 + 0.5 * np.maximum(n @ l1, 0) + 0.18 * np.maximum(n @ l2, 0) + \
+        0.12 * np.maximum((n * v).sum(1), 0)
+
+
+def _save_png(img: np.ndarray, title: str, path) -> None:
+    """Write ``img`` with ``title`` on a band at the top (Pillow), atomically."""
+    from PIL import Image, ImageDraw, ImageFont
+    im = Image.fromarray(img)
+    H = im.height
+    draw = ImageDraw.Draw(im, "RGBA")
+    try:
+        font = ImageFont.load_default(size=max(12, H // 40))
+    except TypeError:          # Pillow < 10.1: the fixed bitmap font
+        font = ImageFont.load_default()
+    box = draw.textbbox((0, 0), title, font=font)
+    tw, th = box[2] - box[0], box[3] - box[1]
+    band = th + 2 * max(6, H // 90)
+    draw.rectangle((0, 0, im.width, band), fill=(255, 255, 255, 215))
+    draw.text(((im.width - tw) / 2 - box[0], (band - th) / 2 - box[1]), title,
+              fill=(34, 34, 51), font=font)
+    buf = io.BytesIO()
+    im.save(buf, format="PNG", optimize=True)
+    _atomic_write(path, buf.getvalue())
+
+
+def _as_plan(plan_dict):
+    if isinstance(plan_dict, Plan):
+        return plan_dict
+    return parse_plan(SourceFile("<plan>", json.dumps(plan_dict)))
+
+
+def _atomic_write(path, data: bytes) -> None:
+    """lang.fileio's atomic write; an unwritable place is E815, not a traceback."""
+    try:
+        atomic_write_bytes(path, data)
+    except OSError as exc:
+        raise InputError(error("E815", f"cannot write {path}: {exc.strerror or exc}", None)) \
+            from None

@@ -1,0 +1,186 @@
+"""The layout's rules, checked on the source (docs/architecture.md):
+
+* layers point one way: ``tmpc.lang`` <- ``tmpc.compiler`` <- ``tmpc.runtime`` <- ``tmpc.runtime.cli``;
+* no import cycles between modules (imports inside functions count too);
+* each sub-package is entered through its door (its ``__init__``), never through a module inside;
+* an import inside a function is of a heavy third-party library (start-up time), or in the
+  places that load tmpc code lazily for start-up on purpose: the CLI's command table, the planner
+  registry, and ``tmpc check --static``;
+* every package directory is installed (pyproject's package list).
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYERS = {"lang": "tmpc.lang", "compiler": "tmpc.compiler", "runtime": "tmpc.runtime",
+          "stdlib": "tmpc.stdlib"}
+#: rank of a module's layer: it may import from its own rank and below
+RANK = {"tmpc.lang": 0, "tmpc.stdlib": 0, "tmpc.compiler": 1, "tmpc.runtime": 2,
+        "tmpc.runtime.cli": 3}
+#: modules whose functions may import tmpc modules lazily (start-up time, said in a comment)
+LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
+             "tmpc.runtime.cli.check"}     # `check --static` alone grounds and loads Z3/JAX
+#: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
+#: language server start without them
+HEAVY = {"jax", "jaxlib", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",
+         "ompl", "collada", "importlib", "traceback", "dataclasses", "itertools", "json",
+         "pathlib", "xml"}
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for folder, pkg in LAYERS.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            rel = path.relative_to(ROOT / folder).with_suffix("")
+            parts = [] if rel.parts == ("__init__",) else list(rel.parts)
+            if parts and parts[-1] == "__init__":
+                parts.pop()
+            out[".".join([pkg, *parts])] = path
+    return out
+
+
+MODULES = _modules()
+PACKAGES = {m for m, p in MODULES.items() if p.name == "__init__.py"}
+#: the sub-packages (wings) with a door: tmpc.<layer>.<name>/
+WINGS = {m for m in PACKAGES if m.count(".") == 2}
+
+
+def _imports(path: Path, module: str):
+    """(target module, line, inside a function?) for every import of tmpc code in ``path``;
+    ``if TYPE_CHECKING:`` blocks are skipped."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found = []
+
+    def visit(node, in_function: bool):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and getattr(child.test, "id", None) == "TYPE_CHECKING":
+                continue
+            inner = in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef))
+            if isinstance(child, ast.ImportFrom):
+                base = child.module or ""
+                if child.level:
+                    base = ".".join(package.split(".")[: len(package.split(".")) - child.level + 1]
+                                    + ([base] if base else []))
+                for alias in child.names:
+                    full = f"{base}.{alias.name}"
+                    found.append((full if full in MODULES else base, child.lineno, in_function,
+                                  base))
+            elif isinstance(child, ast.Import):
+                for alias in child.names:
+                    found.append((alias.name, child.lineno, in_function, alias.name))
+            visit(child, inner)
+
+    visit(tree, False)
+    return found
+
+
+def _rank(module: str) -> int:
+    best = max((p for p in RANK if module == p or module.startswith(p + ".")), key=len)
+    return RANK[best]
+
+
+def _graph() -> dict[str, set[str]]:
+    graph: dict[str, set[str]] = {m: set() for m in MODULES}
+    for m, path in MODULES.items():
+        for target, _, _, _ in _imports(path, m):
+            if target in MODULES and target != m:
+                graph[m].add(target)
+    return graph
+
+
+def test_layers_point_one_way():
+    bad = []
+    for m, path in MODULES.items():
+        for target, line, _, _ in _imports(path, m):
+            if target.startswith("tmpc.") and target in MODULES and _rank(target) > _rank(m):
+                bad.append(f"{path.relative_to(ROOT)}:{line}: {m} imports {target}")
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_no_import_cycles():
+    graph = _graph()
+    state: dict[str, int] = {}
+    cycles = []
+
+    def dfs(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == 1:
+                cycles.append(" -> ".join(stack[stack.index(nxt):] + [nxt]))
+            elif nxt not in state:
+                dfs(nxt, stack)
+        stack.pop()
+        state[node] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            dfs(m, [])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
+
+
+def test_sub_packages_are_entered_through_their_door():
+    bad = []
+    for m, path in MODULES.items():
+        for target, line, _, base in _imports(path, m):
+            for wing in WINGS:
+                inside = m == wing or m.startswith(wing + ".")
+                if not inside and base.startswith(wing + "."):
+                    bad.append(f"{path.relative_to(ROOT)}:{line}: {m} reaches into {base}")
+    assert not bad, "imports past a door:\n" + "\n".join(sorted(bad))
+
+
+def test_imports_inside_functions_are_for_start_up_only():
+    bad = []
+    for m, path in MODULES.items():
+        for target, line, in_function, base in _imports(path, m):
+            if not in_function:
+                continue
+            top = base.split(".")[0]
+            if top == "tmpc" and m not in LAZY_TMPC:
+                bad.append(f"{path.relative_to(ROOT)}:{line}: {m} imports {base} in a function")
+            elif top not in ("tmpc", *HEAVY):
+                bad.append(f"{path.relative_to(ROOT)}:{line}: {m} imports {base} in a function "
+                           "(not a heavy library: import it at the top)")
+    assert not bad, "\n".join(bad)
+
+
+def test_every_package_is_installed():
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    assert listed == PACKAGES, (sorted(PACKAGES - listed), sorted(listed - PACKAGES))
+
+
+def test_no_library_module_imports_a_command_module():
+    bad = [f"{MODULES[m].relative_to(ROOT)} imports {t}" for m, ts in _graph().items()
+           for t in ts if t.startswith("tmpc.runtime.cli") and not m.startswith("tmpc.runtime.cli")]
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("rule", [test_no_import_cycles, test_layers_point_one_way])
+def test_the_checks_can_fail(rule, monkeypatch):
+    """A fake cycle and a fake upward import are caught."""
+    me = sys.modules[__name__]
+    fake = dict(MODULES)
+    real_imports = me._imports
+
+    def imports(path, module):
+        extra = []
+        if module == "tmpc.lang.source":
+            extra.append(("tmpc.runtime.problem", 1, False, "tmpc.runtime.problem"))
+        if module == "tmpc.runtime.problem":
+            extra.append(("tmpc.lang.source", 1, False, "tmpc.lang.source"))
+        return real_imports(path, module) + extra
+
+    monkeypatch.setattr(me, "MODULES", fake)
+    monkeypatch.setattr(me, "_imports", imports)
+    with pytest.raises(AssertionError):
+        rule()
