@@ -23,37 +23,37 @@ from tmpc.lang.diagnostics import SceneError, error
 from tmpc.lang.jsonpos import JsonDoc, parse_json
 from tmpc.lang.source import SourceFile, Span
 
-# Re-exported: the public names of the scene machinery, imported from here by lang.configs,
-# the tests and docs/world.md.
-from tmpc.lang.world.common import ROTATION_TOLERANCE as ROTATION_TOLERANCE
-from tmpc.lang.world.common import JsonReader as JsonReader
-from tmpc.lang.world.common import LoadReport as LoadReport
-from tmpc.lang.world.common import Reader as Reader
-from tmpc.lang.world.common import SceneOptions as SceneOptions
-from tmpc.lang.world.common import UrdfNames as UrdfNames
-from tmpc.lang.world.common import XmlNode as XmlNode
-from tmpc.lang.world.common import box_to_object_frame as box_to_object_frame
-from tmpc.lang.world.common import did_you_mean as did_you_mean
-from tmpc.lang.world.common import display_name as display_name
-from tmpc.lang.world.common import find_file as find_file
-from tmpc.lang.world.common import fmt_num as fmt_num
-from tmpc.lang.world.common import join_hints as join_hints
-from tmpc.lang.world.common import kind as kind
-from tmpc.lang.world.common import load_allowed_pairs as load_allowed_pairs
-from tmpc.lang.world.common import parse_xml as parse_xml
-from tmpc.lang.world.common import read_source as read_source
-from tmpc.lang.world.common import search_dirs as search_dirs
-from tmpc.lang.world.common import tried_text as tried_text
-from tmpc.lang.world.common import urdf_names as urdf_names
+# `X as X`: the scene machinery's public names, re-exported for lang.world.configs, the tests and
+# docs/world.md
+from tmpc.lang.world.files import UrdfNames as UrdfNames
+from tmpc.lang.world.files import find_file as find_file
+from tmpc.lang.world.files import search_dirs as search_dirs
+from tmpc.lang.world.files import tried_text as tried_text
+from tmpc.lang.world.files import urdf_names as urdf_names
 from tmpc.lang.world.native import NATIVE_SCENE_FORMAT as NATIVE_SCENE_FORMAT
 from tmpc.lang.world.native import _load_native
+from tmpc.lang.world.pairs import load_allowed_pairs as load_allowed_pairs
 from tmpc.lang.world.planet import TORSO_JOINT as TORSO_JOINT
 from tmpc.lang.world.planet import _load_planet
+from tmpc.lang.world.reader import ROTATION_TOLERANCE as ROTATION_TOLERANCE
+from tmpc.lang.world.reader import JsonReader as JsonReader
+from tmpc.lang.world.reader import LoadReport as LoadReport
+from tmpc.lang.world.reader import Reader as Reader
+from tmpc.lang.world.reader import SceneOptions as SceneOptions
+from tmpc.lang.world.reader import did_you_mean as did_you_mean
+from tmpc.lang.world.reader import display_name as display_name
+from tmpc.lang.world.reader import fmt_num as fmt_num
+from tmpc.lang.world.reader import join_hints as join_hints
+from tmpc.lang.world.reader import kind as kind
+from tmpc.lang.world.reader import read_source as read_source
+from tmpc.lang.world.rotations import box_to_object_frame as box_to_object_frame
 from tmpc.lang.world.rotations import matrix_from_quat as matrix_from_quat
 from tmpc.lang.world.rotations import orthonormality_error as orthonormality_error
 from tmpc.lang.world.rotations import quat_from_matrix as quat_from_matrix
 from tmpc.lang.world.scene import Scene
 from tmpc.lang.world.tmit import _load_tmit
+from tmpc.lang.world.xmldoc import XmlNode as XmlNode
+from tmpc.lang.world.xmldoc import parse_xml as parse_xml
 
 __all__ = ["SCENE_LOADERS", "NATIVE_SCENE_FORMAT", "LoadReport", "SceneOptions",
            "detect_scene_format", "load_scene", "load_allowed_pairs", "urdf_names"]

@@ -7,25 +7,23 @@ from typing import Any
 from tmpc.lang.diagnostics import Related
 from tmpc.lang.jsonpos import JsonDoc, pointer
 from tmpc.lang.source import SourceFile, Span
-from tmpc.lang.world.common import (
+from tmpc.lang.world.files import UrdfNames, find_file, tried_text
+from tmpc.lang.world.files import resolve_mesh as resolve_mesh
+from tmpc.lang.world.files import resolve_urdf as resolve_urdf
+from tmpc.lang.world.names import Entry as Entry
+from tmpc.lang.world.names import check_names as check_names
+from tmpc.lang.world.names import check_pairs as check_pairs
+from tmpc.lang.world.names import frame_names as frame_names
+from tmpc.lang.world.names import known_joint as known_joint
+from tmpc.lang.world.pairs import load_allowed_pairs
+from tmpc.lang.world.reader import (
     JsonReader,
     LoadReport,
     SceneOptions,
-    UrdfNames,
-    _check_names,
-    _check_pairs,
-    _Entry,
-    _frame_names,
-    _known_joint,
-    _resolve_mesh,
-    _resolve_urdf,
     did_you_mean,
-    find_file,
     fmt_num,
     join_hints,
-    load_allowed_pairs,
     read_json_scene,
-    tried_text,
 )
 from tmpc.lang.world.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
 
@@ -50,16 +48,16 @@ def _native_scene(r: JsonReader, opts: SceneOptions) -> Scene:
     if top.get("robot") is not None:
         with r.part():
             robot, urdf = _native_robot(r, "/robot", top["robot"])
-    entries: list[_Entry] = []
+    entries: list[Entry] = []
     with r.part():
         for i, o in enumerate(r.array("/objects", top.get("objects", []))):
             with r.part():
                 entries.append(_native_object(r, f"/objects/{i}", o, opts))
-    _check_names(r, entries, robot, urdf)
+    check_names(r, entries, robot, urdf)
     pairs: tuple[tuple[str, str], ...] = ()
     if "allowed_collisions" in top:
         with r.part():
-            pairs = _native_pairs(r, top["allowed_collisions"], _frame_names(entries, robot, urdf))
+            pairs = _native_pairs(r, top["allowed_collisions"], frame_names(entries, robot, urdf))
     r.finish()
     return Scene(r.source.path, bounds, robot, tuple(e.obj for e in entries), pairs,  # type: ignore[arg-type]
                  "tmpc-json")
@@ -69,7 +67,7 @@ def _native_robot(r: JsonReader, ptr: str, value: Any) -> tuple[RobotSpec, UrdfN
     v = r.obj(ptr, value, ("urdf",), ("name", "base_pose", "mobile_base", "joints",
                                      "controllable"))
     raw = r.string(f"{ptr}/urdf", v["urdf"])
-    path, names = _resolve_urdf(r, raw, r.span(f"{ptr}/urdf"), f"{ptr}/urdf")
+    path, names = resolve_urdf(r, raw, r.span(f"{ptr}/urdf"), f"{ptr}/urdf")
     name = r.pddl_name(f"{ptr}/name", v["name"]) if "name" in v else names.robot
     pose = r.pose(f"{ptr}/base_pose", v["base_pose"], False) if "base_pose" in v else Pose()
     mobile = r.boolean(f"{ptr}/mobile_base", v.get("mobile_base", False))
@@ -78,7 +76,7 @@ def _native_robot(r: JsonReader, ptr: str, value: Any) -> tuple[RobotSpec, UrdfN
     for jn, x in jv.items():
         jp = f"{ptr}/joints" + pointer(jn)
         with r.part():
-            _known_joint(r, jn, names, r.doc.key_span(jp), f"{ptr}/joints")
+            known_joint(r, jn, names, r.doc.key_span(jp), f"{ptr}/joints")
             joints.append((jn, r.number(jp, x)))
     controllable = None
     if v.get("controllable") is not None:
@@ -94,7 +92,7 @@ def _native_controllable(r: JsonReader, ptr: str, value: Any, names: UrdfNames) 
             jn = r.string(f"{ptr}/{i}", jn)
             if jn in out:
                 r.fail("E510", r.span(f"{ptr}/{i}"), f"{ptr}/{i}: joint \"{jn}\" listed twice")
-            _known_joint(r, jn, names, r.span(f"{ptr}/{i}"), ptr, movable=True)
+            known_joint(r, jn, names, r.span(f"{ptr}/{i}"), ptr, movable=True)
             out.append(jn)
     return tuple(out)
 
@@ -103,7 +101,7 @@ _SHAPE_KEYS = {"box": (("half_extents",), ()), "sphere": (("radius",), ()),
                "cylinder": (("radius", "length"), ()), "mesh": (("file",), ("scale", "convex"))}
 
 
-def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> _Entry:
+def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Entry:
     v = r.obj(ptr, value, ("name", "pose"), ("movable", "shape", "support", "parent"))
     name = r.pddl_name(f"{ptr}/name", v["name"])
     pose = r.pose(f"{ptr}/pose", v["pose"], False)
@@ -124,7 +122,7 @@ def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> _
         support = Box((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2]))
     parent = r.pddl_name(f"{ptr}/parent", v["parent"]) if v.get("parent") is not None else None
     obj = SceneObject(name, pose, movable, shape, support, parent, r.origin(r.span(ptr), ptr))
-    return _Entry(obj, r.span(f"{ptr}/name"), r.span(f"{ptr}/parent") if parent else None)
+    return Entry(obj, r.span(f"{ptr}/name"), r.span(f"{ptr}/parent") if parent else None)
 
 
 def _native_shape(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Shape:
@@ -152,7 +150,7 @@ def _native_shape(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Sh
         return Shape("cylinder", radius=num("radius", "a radius"), length=num("length", "a length"))
     raw = r.string(f"{ptr}/file", v["file"])
     bases = [r.directory] + ([opts.mesh_dir] if opts.mesh_dir else [])
-    mesh = _resolve_mesh(r, opts, raw, r.span(f"{ptr}/file"), f"{ptr}/file", bases)
+    mesh = resolve_mesh(r, opts, raw, r.span(f"{ptr}/file"), f"{ptr}/file", bases)
     scale: tuple[float, ...] = (1.0, 1.0, 1.0)
     if "scale" in v:
         sv = v["scale"]
@@ -181,4 +179,4 @@ def _native_pairs(r: JsonReader, value: Any, frames: dict[str, str]) -> tuple[tu
                        "[\"a\", \"b\"]", 'write ["link_or_object", "other"]')
             pairs.append((r.string(f"{ptr}/{i}/0", p[0]), r.string(f"{ptr}/{i}/1", p[1]),
                           r.span(f"{ptr}/{i}")))
-    return _check_pairs(r, pairs, frames)
+    return check_pairs(r, pairs, frames)

@@ -9,25 +9,23 @@ from typing import Iterable
 
 from tmpc.lang.diagnostics import Related
 from tmpc.lang.source import SourceFile, Span
-from tmpc.lang.world.common import (
+from tmpc.lang.world.files import UrdfNames
+from tmpc.lang.world.files import resolve_mesh as resolve_mesh
+from tmpc.lang.world.files import resolve_urdf as resolve_urdf
+from tmpc.lang.world.names import Entry as Entry
+from tmpc.lang.world.names import check_names as check_names
+from tmpc.lang.world.names import known_joint as known_joint
+from tmpc.lang.world.reader import (
     ROTATION_TOLERANCE,
     LoadReport,
     Reader,
     SceneOptions,
-    UrdfNames,
-    XmlNode,
-    _check_names,
-    _Entry,
-    _known_joint,
-    _resolve_mesh,
-    _resolve_urdf,
     did_you_mean,
     fmt_num,
-    orthonormality_error,
-    parse_xml,
-    quat_from_matrix,
 )
+from tmpc.lang.world.rotations import orthonormality_error, quat_from_matrix
 from tmpc.lang.world.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
+from tmpc.lang.world.xmldoc import XmlNode, parse_xml
 
 _PLANET_OBJ_KNOWN = ("name", "geom", "pose", "moveable", "sssp")
 _PLANET_OBJ_IGNORED = ("sop", "gf", "gc", "grasps", "attachments")
@@ -135,7 +133,7 @@ def _planet_scene(r: _XmlReader, root: XmlNode, opts: SceneOptions) -> Scene:
     objects = r.need(root, "objects")
     robots = r.need(root, "robots")
     r.check_children(objects, ("obj",))
-    entries: list[_Entry] = []
+    entries: list[Entry] = []
     mesh_bases = [opts.mesh_dir] if opts.mesh_dir else [r.directory]
     for node in objects.all("obj"):
         with r.part():
@@ -146,14 +144,14 @@ def _planet_scene(r: _XmlReader, root: XmlNode, opts: SceneOptions) -> Scene:
     bounds = None
     with r.part():
         bounds = _planet_bounds(r, root, entries, robot)
-    _check_names(r, entries, robot, urdf)
+    check_names(r, entries, robot, urdf)
     r.finish()
     return Scene(r.source.path, bounds, robot, tuple(e.obj for e in entries), (),  # type: ignore[arg-type]
                  "planet-xml")
 
 
 def _planet_object(r: _XmlReader, node: XmlNode, opts: SceneOptions,
-                   mesh_bases: list[Path]) -> _Entry:
+                   mesh_bases: list[Path]) -> Entry:
     r.check_children(node, _PLANET_OBJ_KNOWN + ("pssp",), _PLANET_OBJ_IGNORED)
     name_node = r.need(node, "name")
     name = r.text(name_node)
@@ -161,7 +159,7 @@ def _planet_object(r: _XmlReader, node: XmlNode, opts: SceneOptions,
         r.fail("E518", r.text_span(name_node), f"<obj> \"{name}\" cannot be used as a name in "
                "PDDL", "names have no spaces, brackets, quotes or `;`")
     geom = r.need(node, "geom")
-    mesh = _resolve_mesh(r, opts, r.text(geom), r.text_span(geom), r.label(geom), mesh_bases)
+    mesh = resolve_mesh(r, opts, r.text(geom), r.text_span(geom), r.label(geom), mesh_bases)
     pose = r.pose(r.need(node, "pose"))
     mv = node.child("moveable")
     movable = r.boolean(mv) if mv is not None else False
@@ -184,7 +182,7 @@ def _planet_object(r: _XmlReader, node: XmlNode, opts: SceneOptions,
         support = Box((v["xmin"], v["ymin"], v["zmin"]), (v["xmax"], v["ymax"], v["zmax"]))
     obj = SceneObject(name, pose, movable, Shape("mesh", mesh=mesh, convex=False), support, None,
                       r.origin(r.start_tag(node), node.path))
-    return _Entry(obj, r.text_span(name_node))
+    return Entry(obj, r.text_span(name_node))
 
 
 def _planet_robot(r: _XmlReader, robots: XmlNode) -> tuple[RobotSpec, UrdfNames]:
@@ -197,7 +195,7 @@ def _planet_robot(r: _XmlReader, robots: XmlNode) -> tuple[RobotSpec, UrdfNames]
     r.check_children(node, _PLANET_ROBOT_KNOWN)
     name_node = node.child("name")
     urdf_node = r.need(node, "urdf")
-    path, names = _resolve_urdf(r, r.text(urdf_node), r.text_span(urdf_node), r.label(urdf_node))
+    path, names = resolve_urdf(r, r.text(urdf_node), r.text_span(urdf_node), r.label(urdf_node))
     name = r.text(name_node) if name_node is not None else names.robot
     bp = node.child("basepose")
     pose = r.pose(bp) if bp is not None else Pose()
@@ -207,7 +205,7 @@ def _planet_robot(r: _XmlReader, robots: XmlNode) -> tuple[RobotSpec, UrdfNames]
     torso = node.child("torso")
     if torso is not None:
         value = r.floats(torso, (1,), "<torso>")[0]
-        if _known_joint(r, TORSO_JOINT, names, r.start_tag(torso), r.label(torso), warn=True):
+        if known_joint(r, TORSO_JOINT, names, r.start_tag(torso), r.label(torso), warn=True):
             joints.append((TORSO_JOINT, value))
     controllable: tuple[str, ...] | None = None
     cj = node.child("controllable_joints")
@@ -229,14 +227,14 @@ def _planet_joints(r: _XmlReader, cj: XmlNode, names: UrdfNames,
                        'write <joint name="...">initial value</joint>')
             if jn in order:
                 r.fail("E510", r.start_tag(j), f"{j.path}: joint \"{jn}\" listed twice")
-            _known_joint(r, jn, names, r.start_tag(j), r.label(cj), movable=True)
+            known_joint(r, jn, names, r.start_tag(j), r.label(cj), movable=True)
             value = r.floats(j, (1,), f"joint \"{jn}\"'s initial value")[0]
             order.append(jn)
             joints[:] = [(n, x) for n, x in joints if n != jn] + [(jn, value)]
     return tuple(order)
 
 
-def _planet_bounds(r: _XmlReader, root: XmlNode, entries: list[_Entry],
+def _planet_bounds(r: _XmlReader, root: XmlNode, entries: list[Entry],
                    robot: RobotSpec | None) -> tuple[tuple[float, float], ...]:
     wb = root.child("workspace_bounds")
     if wb is None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from tmpc.lang.world.scene import Quat
+from tmpc.lang.world.scene import Box, Quat, Vec3
 
 
 def quat_from_matrix(r: Sequence[Sequence[float]]) -> Quat:
@@ -59,3 +59,21 @@ def orthonormality_error(r: Sequence[Sequence[float]]) -> tuple[float, float]:
 
 
 __all__ = ["matrix_from_quat", "orthonormality_error", "quat_from_matrix"]
+
+
+def box_to_object_frame(q: Quat, lower: Vec3, upper: Vec3) -> tuple[Box, bool]:
+    """A box given in world-aligned axes at an object's origin, expressed in the object's frame
+    (Rᵀ applied). Exact (returns True) when R maps axes to axes; otherwise the axis-aligned
+    bounding box of the rotated box (returns False)."""
+    rt = [list(row) for row in zip(*matrix_from_quat(q))]     # Rᵀ
+    perm = all(min(abs(v), abs(abs(v) - 1)) < 1e-6 for row in rt for v in row)
+    lo, hi = [0.0] * 3, [0.0] * 3
+    for i in range(3):
+        if perm:
+            j = max(range(3), key=lambda k: abs(rt[i][k]))
+            a, b = (lower[j], upper[j]) if rt[i][j] > 0 else (-upper[j], -lower[j])
+            lo[i], hi[i] = a + 0.0, b + 0.0
+        else:
+            lo[i] = sum(min(rt[i][k] * lower[k], rt[i][k] * upper[k]) for k in range(3))
+            hi[i] = sum(max(rt[i][k] * lower[k], rt[i][k] * upper[k]) for k in range(3))
+    return Box((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])), perm

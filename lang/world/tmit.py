@@ -6,20 +6,14 @@ from typing import Any
 
 from tmpc.lang.jsonpos import JsonDoc, pointer
 from tmpc.lang.source import SourceFile
-from tmpc.lang.world.common import (
-    JsonReader,
-    LoadReport,
-    SceneOptions,
-    UrdfNames,
-    _check_names,
-    _Entry,
-    _known_joint,
-    _resolve_mesh,
-    _resolve_urdf,
-    box_to_object_frame,
-    read_json_scene,
-    search_dirs,
-)
+from tmpc.lang.world.files import UrdfNames, search_dirs
+from tmpc.lang.world.files import resolve_mesh as resolve_mesh
+from tmpc.lang.world.files import resolve_urdf as resolve_urdf
+from tmpc.lang.world.names import Entry as Entry
+from tmpc.lang.world.names import check_names as check_names
+from tmpc.lang.world.names import known_joint as known_joint
+from tmpc.lang.world.reader import JsonReader, LoadReport, SceneOptions, read_json_scene
+from tmpc.lang.world.rotations import box_to_object_frame
 from tmpc.lang.world.scene import Pose, RobotSpec, Scene, SceneObject, Shape
 
 _TMIT_IGNORED = ("color", "specular", "hide_name")
@@ -37,12 +31,12 @@ def _tmit_scene(r: JsonReader, opts: SceneOptions) -> Scene:
         bounds = r.bounds("/bounds", top["bounds"])
     with r.part():
         robot, urdf = _tmit_robot(r, "/robot", top["robot"])
-    entries: list[_Entry] = []
+    entries: list[Entry] = []
     with r.part():
         for i, o in enumerate(r.array("/objects", top.get("objects", []))):
             with r.part():
                 entries.append(_tmit_object(r, f"/objects/{i}", o, opts))
-    _check_names(r, entries, robot, urdf)
+    check_names(r, entries, robot, urdf)
     r.finish()
     return Scene(r.source.path, bounds, robot, tuple(e.obj for e in entries), (),  # type: ignore[arg-type]
                  "tmit-star-json")
@@ -51,7 +45,7 @@ def _tmit_scene(r: JsonReader, opts: SceneOptions) -> Scene:
 def _tmit_robot(r: JsonReader, ptr: str, value: Any) -> tuple[RobotSpec, UrdfNames]:
     v = r.obj(ptr, value, ("urdf", "base_pose"), ("joint_poses",))
     raw = r.string(f"{ptr}/urdf", v["urdf"])
-    path, names = _resolve_urdf(r, raw, r.span(f"{ptr}/urdf"), f"{ptr}/urdf")
+    path, names = resolve_urdf(r, raw, r.span(f"{ptr}/urdf"), f"{ptr}/urdf")
     bp = r.obj(f"{ptr}/base_pose", v["base_pose"], ("translation", "rotation"))
     x, y = r.numbers(f"{ptr}/base_pose/translation", bp["translation"], 2,
                      "a tmit-star base translation [x, y]")
@@ -62,14 +56,14 @@ def _tmit_robot(r: JsonReader, ptr: str, value: Any) -> tuple[RobotSpec, UrdfNam
         jp = f"{ptr}/joint_poses" + pointer(jn)
         with r.part():
             x_j = r.number(jp, val)
-            if _known_joint(r, jn, names, r.doc.key_span(jp), f"{ptr}/joint_poses", warn=True):
+            if known_joint(r, jn, names, r.doc.key_span(jp), f"{ptr}/joint_poses", warn=True):
                 joints.append((jn, x_j))
     # tmit-star's base always moves in x, y, yaw; it plans every joint of the URDF
     return RobotSpec(path, Pose.from_xyz_yaw(x, y, 0.0, yaw), True, tuple(joints), None,
                      names.robot, r.origin(r.span(ptr), ptr)), names
 
 
-def _tmit_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> _Entry:
+def _tmit_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Entry:
     v = r.obj(ptr, value, ("name", "pose"), ("is_static", "parent_name", "surface_bounds",
                                              "obj_file", "scale", "is_concave", "shape"),
               ignored=_TMIT_IGNORED)
@@ -93,7 +87,7 @@ def _tmit_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> _En
                    "tmit-star bounds are world-aligned; give the region in the object's frame "
                    "in a native scene to be exact")
     obj = SceneObject(name, pose, movable, shape, support, parent, r.origin(r.span(ptr), ptr))
-    return _Entry(obj, r.span(f"{ptr}/name"),
+    return Entry(obj, r.span(f"{ptr}/name"),
                   r.span(f"{ptr}/parent_name") if parent else None)
 
 
@@ -104,7 +98,7 @@ def _tmit_shape(r: JsonReader, ptr: str, v: dict, opts: SceneOptions) -> Shape:
                    "\"shape\" given; \"obj_file\" is used, as tmit-star did", "remove one")
         raw = r.string(f"{ptr}/obj_file", v["obj_file"])
         bases = search_dirs(r.directory, True) + ([opts.mesh_dir] if opts.mesh_dir else [])
-        mesh = _resolve_mesh(r, opts, raw, r.span(f"{ptr}/obj_file"), f"{ptr}/obj_file", bases)
+        mesh = resolve_mesh(r, opts, raw, r.span(f"{ptr}/obj_file"), f"{ptr}/obj_file", bases)
         scale = (1.0, 1.0, 1.0)
         if "scale" in v:
             scale = r.numbers(f"{ptr}/scale", v["scale"], 3, "a scale [x, y, z]")

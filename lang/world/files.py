@@ -1,0 +1,127 @@
+"""The files a scene refers to: search directories (legacy files resolve against their ancestors),
+URDF and mesh references, and the URDF's link and joint names (cached)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable
+
+from tmpc.lang.diagnostics import SceneError
+from tmpc.lang.source import Span
+from tmpc.lang.world.reader import LoadReport, Reader, SceneOptions, Stop, join_hints, read_source
+from tmpc.lang.world.robot import resolve_uri
+from tmpc.lang.world.xmldoc import parse_xml
+
+
+def search_dirs(start: Path, ancestors: bool) -> list[Path]:
+    """``start`` and, for legacy files, each of its ancestors (nearest first)."""
+    return [start, *start.parents] if ancestors else [start]
+
+
+def find_file(raw: str, bases: Iterable[Path], by_name: Iterable[Path] = (),
+              want_dir: bool = False) -> tuple[Path | None, list[Path]]:
+    """Resolve ``raw`` (``~`` expanded): absolute as is; relative against each base in turn,
+    then by file name in ``by_name``. Returns (the first that exists, every place tried)."""
+    p = Path(os.path.expanduser(raw))
+    candidates = [p] if p.is_absolute() else [b / p for b in bases]
+    candidates += [d / p.name for d in by_name]
+    tried: list[Path] = []
+    for c in candidates:
+        c = Path(os.path.normpath(c))
+        if c in tried:
+            continue
+        tried.append(c)
+        if (c.is_dir() if want_dir else c.is_file()):
+            return c, tried
+    return None, tried
+
+
+def tried_text(tried: list[Path], limit: int = 6) -> str:
+    shown = [str(t) for t in tried[:limit]]
+    more = f" and {len(tried) - limit} more" if len(tried) > limit else ""
+    return "looked for " + ", ".join(shown) + more
+
+
+@dataclass(frozen=True)
+class UrdfNames:
+    robot: str
+    links: frozenset[str]
+    joints: frozenset[str]
+    #: joints a planner can move: revolute, continuous or prismatic, and not mimics
+    movable: frozenset[str] = frozenset()
+
+
+_URDF_CACHE: dict[tuple[str, int, int], UrdfNames] = {}
+
+
+def urdf_names(path: Path, report: LoadReport | None = None) -> UrdfNames:
+    """The robot, link and joint names of a URDF (a fast expat scan, cached per file version).
+    A file that is not well-formed XML is SceneError E561 (the URDF's own code)."""
+    st = path.stat()
+    key = (str(path), st.st_mtime_ns, st.st_size)
+    hit = _URDF_CACHE.get(key)
+    if hit is not None:
+        return hit
+    source = read_source(path, "URDF")
+    root = parse_xml(source, report or LoadReport(), code="E561")
+    links = frozenset(c.attrib["name"] for c in root.children
+                      if c.tag == "link" and "name" in c.attrib)
+    joint_nodes = [c for c in root.children if c.tag == "joint" and "name" in c.attrib]
+    movable = frozenset(j.attrib["name"] for j in joint_nodes
+                        if j.attrib.get("type") in ("revolute", "continuous", "prismatic")
+                        and j.child("mimic") is None)
+    names = UrdfNames(root.attrib.get("name", "robot"), links,
+                      frozenset(j.attrib["name"] for j in joint_nodes), movable)
+    if len(_URDF_CACHE) > 32:
+        _URDF_CACHE.clear()
+    _URDF_CACHE[key] = names
+    return names
+
+
+def uri_candidates(raw: str, bases: list[Path]) -> list[Path] | None:
+    """Candidates for a ``package://`` or ``file://`` reference (None for a plain path)."""
+    if not raw.startswith(("package://", "file://")):
+        return None
+    return resolve_uri(raw, bases[0])
+
+
+def find_first(raw: str, bases: list[Path], by_name: Iterable[Path] = ()) -> tuple[Path | None,
+                                                                             list[Path]]:
+    uri = uri_candidates(raw, bases)
+    if uri is None:
+        return find_file(raw, bases, by_name)
+    tried = [Path(os.path.normpath(c)) for c in uri]
+    return next((c for c in tried if c.is_file()), None), tried
+
+
+def resolve_urdf(r: Reader, raw: str, span: Span | None, where: str) -> tuple[Path, UrdfNames]:
+    found, tried = find_first(raw, search_dirs(r.directory, r.legacy))
+    if found is None:
+        r.fail("E560", span, f"{where}: URDF file \"{raw}\" not found",
+               join_hints(tried_text(tried), "relative paths are relative to the scene file's "
+                          "directory" + (" or one of its parents" if r.legacy else "")))
+    try:
+        return found, urdf_names(found, r.report)
+    except SceneError as exc:       # a malformed URDF: its own file and position
+        r.errors.extend(exc.diagnostics)
+        r.report.files.update(exc.files)
+        raise Stop from None
+
+
+def resolve_mesh(r: Reader, opts: SceneOptions, raw: str, span: Span | None, where: str,
+                  bases: list[Path]) -> Path:
+    fallbacks = list(opts.mesh_fallback_dirs)
+    found, tried = find_first(raw, bases + fallbacks, by_name=fallbacks)
+    if found is not None:
+        return found
+    looked = tried_text(tried)
+    if opts.strict_meshes:
+        r.fail("E514", span, f"{where}: mesh file \"{raw}\" not found",
+               join_hints(looked, "point tmpc at the meshes (a mesh directory / fallback "
+                           "directories) or load with strict meshes off to go on without them"))
+    guess = next((t for t in tried if t.parent.is_dir()), tried[0])
+    r.warn("W501", span, f"{where}: mesh file \"{raw}\" not found; kept as {guess}",
+           join_hints(looked, "collision checks need the mesh; give a mesh directory"))
+    return guess
