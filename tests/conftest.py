@@ -1,60 +1,42 @@
-"""Shared test helpers: the fixture corpus and a parse/check shortcut."""
+"""Shared fixtures. Plain helpers and paths are in tests/support.py.
+
+The session-scoped fixtures hold expensive objects (a loaded world compiles once, and its jitted
+kernels are shared by everything that uses the same world object): a test must only read them.
+A test that changes its world or problem builds its own."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
+import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
-FIXTURES = Path(__file__).resolve().parent / "fixtures"
-EXAMPLES = ROOT / "examples"
-STDLIB = ROOT / "stdlib"
-
-
-def program_dirs(*groups: str) -> list[Path]:
-    """Fixture folders holding one domain and its problems (corpus tests glob these)."""
-    out = []
-    for g in groups:
-        base = FIXTURES / g
-        out += sorted(p.parent for p in base.rglob("domain.pddl"))
-    return out
-
-
-def pddl_files(*groups: str) -> list[Path]:
-    out = []
-    for g in groups:
-        out += sorted((FIXTURES / g).rglob("*.pddl"))
-    return out
-
-
-def example_programs() -> list[list[Path]]:
-    """Each example folder: its domain first, then its problems."""
-    progs = []
-    for d in sorted(p.parent for p in EXAMPLES.rglob("domain.pddl")):
-        probs = sorted(p for p in d.glob("*.pddl") if p.name != "domain.pddl")
-        progs.append([d / "domain.pddl", *probs])
-    return progs
-
-
-def check(text: str, path: str = "test.pddl"):
-    """Check one in-memory file (domain and/or problem). Returns the CheckReport."""
-    from tmpc.lang.program import Workspace, check_parsed
-    from tmpc.lang.source import SourceFile
-    ws = Workspace()
-    parsed = ws.add_source(SourceFile(path, text))
-    return check_parsed(ws, [parsed])
-
-
-def codes(report) -> list[str]:
-    return [d.code for d in report.diagnostics]
-
-
-def errors(report) -> list[str]:
-    return [d.code for d in report.diagnostics if d.is_error]
+from tests.support import CLUTTER, TABLETOP
 
 
 @pytest.fixture
 def tmp_cwd(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     return tmp_path
+
+
+@pytest.fixture(scope="session")
+def tabletop_world():
+    """examples/tabletop/tabletop.toml opened with its program (read only)."""
+    from tmpc.compiler.artifact import open_world
+    return open_world(TABLETOP)
+
+
+@pytest.fixture(scope="session")
+def clutter_world():
+    """examples/clutter/clutter.toml opened with its program (read only)."""
+    from tmpc.compiler.artifact import open_world
+    return open_world(CLUTTER)
+
+
+@pytest.fixture(scope="session")
+def clutter_problem_1(clutter_world):
+    """The bundled 1-stick clutter problem as a planner sees it, compiled and warmed up once for
+    the session (read only: planners built on it keep their own state)."""
+    from tmpc.runtime.problem import PlanningProblem
+    problem = PlanningProblem(clutter_world)
+    problem.warm_up(np.random.default_rng(0))
+    return problem

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support import ROOT
+
 LAYERS = {"lang": "tmpc.lang", "compiler": "tmpc.compiler", "runtime": "tmpc.runtime",
           "stdlib": "tmpc.stdlib"}
 #: rank of a module's layer: it may import from its own rank and below

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import EXAMPLES
 from tmpc.compiler.compile import compile_world
 
 pytestmark = pytest.mark.bench

@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import EXAMPLES
 from tmpc.compiler.ground import bits, ground
 from tmpc.lang.program import Workspace, check_parsed
 from tmpc.lang.source import SourceFile

@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, FIXTURES
 
+from tests.support import EXAMPLES, FIXTURES
 from tmpc.compiler.compile import compile_world
 
 pytestmark = pytest.mark.bench
@@ -29,14 +29,14 @@ def test_traced_lua_vs_native_vs_direct():
     from tmpc.compiler import ir
     from tmpc.compiler.artifact import open_world
     from tmpc.compiler.jaxcfg import configured
-    from tmpc.compiler.kernels import build_world, condition_kernel, state_inputs
+    from tmpc.compiler.kernels import build_tables, condition_kernel, state_inputs
     from tmpc.compiler.lower import builtin
     from tmpc.compiler.lua_trace import LuaFallback, trace_module
     from tmpc.compiler.state import initial_state
     from tmpc.lang.lua import load_lua_predicates
     jax = configured()
     world = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
-    kw = build_world(world.scene, compile_world(world).model, world.program.scope)
+    kw = build_tables(world.scene, compile_world(world).model, world.program.scope)
     module = load_lua_predicates(FIXTURES / "lua" / "planet_world.lua")
     traced = trace_module(module, {"close": 2}).traced["close"]
     pos = lambda i: builtin("position", [ir.Arg(i)])                    # noqa: E731

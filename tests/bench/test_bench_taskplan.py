@@ -12,7 +12,8 @@ import sys
 import time
 
 import pytest
-from conftest import EXAMPLES
+
+from tests.support import EXAMPLES
 
 pytestmark = pytest.mark.bench
 

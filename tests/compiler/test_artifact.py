@@ -10,8 +10,8 @@ import zipfile
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import EXAMPLES
 from tmpc.compiler.compile import compile_world
 from tmpc.runtime.collision import collision_world
 
@@ -43,7 +43,7 @@ def test_artifact_runs_without_its_sources(artifact):
     assert r.returncode == 0, r.stderr
 
 
-def test_artifact_carries_the_robots_srdf(artifact):
+def test_artifact_carries_the_robots_srdf(artifact, tabletop_world):
     """Self-collision pairs the SRDF disables must stay disabled in a run from the artifact
     (without it the PR2's finger tips collide in its start state)."""
     import numpy as np
@@ -53,7 +53,7 @@ def test_artifact_carries_the_robots_srdf(artifact):
     with zipfile.ZipFile(artifact) as z:
         assert any(n.endswith(".srdf") for n in z.namelist())
     world = open_world(artifact)
-    source = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    source = tabletop_world
     a, b = collision_world(world, compile_world(world)), collision_world(source, compile_world(source))
     assert np.array_equal(a.allowed, b.allowed)
     s0 = initial_state(world.scene, compile_world(world).model)
@@ -65,32 +65,40 @@ def test_manifest_and_members(artifact):
         manifest = json.loads(z.read("manifest.json"))
         names = set(z.namelist())
     assert manifest["format"] == "tmpc-artifact/1"
-    assert {k["name"] for k in manifest["kernels"]} == {"reach", "over", "pick", "place"}
+    kernels = manifest["bank"]["kernels"]
+    assert {k for k in kernels if k.startswith("cond/")} == {
+        "cond/predicate/reach", "cond/predicate/over", "cond/action/pick", "cond/action/place"}
+    assert {"fk", "fk/batch", "proj/action/pick", "proj/action/place", "grad/predicate/reach",
+            "proj/predicate/over"} <= set(kernels)
+    assert all(member in names for member in kernels.values()) and not manifest["bank"]["skipped"]
     assert set(manifest["members"]) | {"manifest.json"} == names
     assert not any(n.endswith((".pkl", ".pickle", ".py")) for n in names)
     assert manifest["layout"]["q"] == [f"panda_joint{i}" for i in range(1, 8)]
 
 
 def test_exported_kernels_equal_rebuilt_ones(artifact):
-    from tmpc.compiler.artifact import exported_kernels, open_world, read_manifest
+    """The artifact's kernels (deserialized) and kernels traced from the same sources agree."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.compile import CompiledProgram
     from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
     world = open_world(artifact)
-    manifest, _ = read_manifest(artifact)
-    exported = exported_kernels(artifact, manifest)
-    assert set(exported) == {("predicate", "reach"), ("predicate", "over"), ("action", "pick"),
-                             ("action", "place")}
-    compiled = compile_world(world)
-    q, T, par = state_inputs(compiled.tables, initial_state(world.scene, compile_world(world).model))
+    compiled = compile_world(world)                     # kernels from the artifact
+    traced = CompiledProgram(world.program, world.scene, compiled.model, compiled.options,
+                             compiled.external)          # an empty bank: traced
+    q, T, par = state_inputs(compiled.tables, initial_state(world.scene, compiled.model))
     rng = np.random.default_rng(0)
-    Q = rng.uniform(compile_world(world).model.lower, compile_world(world).model.upper, (16, compile_world(world).model.dof))
-    f = compiled.predicate("reach")
-    kernel, _ = compiled.kernels(f)
-    ids = compiled.bind_args(f, ["panda_hand_tcp", "red_cube"])
-    truth, dist = exported[("predicate", "reach")](Q, T, par, np.tile(ids, (16, 1)))
-    for i in range(16):
-        t, d = kernel(Q[i], T, par, ids)
-        assert bool(t) == bool(truth[i]) and float(d) == pytest.approx(float(dist[i]), abs=1e-12)
+    Q = rng.uniform(compiled.model.lower, compiled.model.upper, (16, compiled.model.dof))
+    for name, args in (("reach", ["panda_hand_tcp", "red_cube"]), ("over", ["panda_hand_tcp",
+                                                                           "tray"])):
+        f, g = compiled.predicate(name), traced.predicate(name)
+        ids = compiled.bind_args(f, args)
+        exported, rebuilt = compiled.kernels(f)[0], traced.kernels(g)[0]
+        for i in range(16):
+            (t1, d1), (t2, d2) = exported(Q[i], T, par, ids), rebuilt(Q[i], T, par, ids)
+            assert bool(t1) == bool(t2) and float(d1) == pytest.approx(float(d2), abs=1e-12)
+    assert compiled.bank.stats.traced == 0 and compiled.bank.stats.deserialized >= 2
+    assert traced.bank.stats.traced >= 2
 
 
 def test_bad_artifacts_are_rejected_clearly(artifact, tmp_path):

@@ -7,9 +7,9 @@ from collections import deque
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, FIXTURES, check
-from ground_reference import Reference
 
+from tests.ground_reference import Reference
+from tests.support import EXAMPLES, FIXTURES, check
 from tmpc.compiler.ground import GroundingError, bits, ground
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile

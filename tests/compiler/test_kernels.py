@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import EXAMPLES
 from tmpc.compiler.compile import compile_world
 
 EXTRA = """
@@ -28,7 +28,7 @@ EXTRA = """
 @pytest.fixture(scope="module")
 def tabletop(tmp_path_factory):
     from tmpc.compiler.artifact import open_world
-    from tmpc.compiler.kernels import build_world
+    from tmpc.compiler.kernels import build_tables
     d = tmp_path_factory.mktemp("tt")
     domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
     domain = domain.replace("  (:predicates\n", "  (:constants bench tray - surface)\n"
@@ -40,7 +40,7 @@ def tabletop(tmp_path_factory):
     (d / "t.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
                               'scene = "scene.json"\n')
     world = open_world(d / "t.toml")
-    return world, build_world(world.scene, compile_world(world).model, world.program.scope)
+    return world, build_tables(world.scene, compile_world(world).model, world.program.scope)
 
 
 CASES = [("reach", ("panda_hand_tcp", "red_cube")), ("over", ("panda_hand_tcp", "tray")),

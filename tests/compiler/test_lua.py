@@ -14,15 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support import EXAMPLES, FIXTURES, LEGACY
 from tmpc.compiler import ir
-from tmpc.compiler.compile import compile_world
 from tmpc.compiler.lua_trace import LuaFallback, trace_module
 from tmpc.lang import SourceFile, parse_source
 from tmpc.lang.diagnostics import LuaError, render
 from tmpc.lang.lua import LuaLimits, load_lua_predicates
 
-FIX = Path(__file__).parent / "fixtures" / "lua"
-LEGACY = Path("/tmp/legacy")
+FIX = FIXTURES / "lua"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -74,12 +73,12 @@ BOX = ((-0.3, -0.25, 0.0), (0.35, 0.2, 0.05))
 
 def jax_distance(node, poses, boxes):
     """(truth, distance) of an IR condition by the JAX backend, arguments = objects 0..k-1."""
-    from tmpc.compiler.kernels import build_world, condition_kernel
+    from tmpc.compiler.kernels import build_tables, condition_kernel
     from tmpc.lang.world.scene import Box, Pose, Scene, SceneObject
     objs = tuple(SceneObject(f"o{i}", Pose(tuple(p[:3]), tuple(p[3:])),
                              support=Box(*b) if b is not None else None)
                  for i, (p, b) in enumerate(zip(poses, boxes)))
-    world = build_world(Scene("test", ((-5, 5),) * 3, None, objs), None)
+    world = build_tables(Scene("test", ((-5, 5),) * 3, None, objs), None)
     T = np.tile(np.eye(4), (len(poses), 1, 1))
     for i, p in enumerate(poses):
         T[i, :3, :3], T[i, :3, 3] = R_of(p[3:]), p[:3]
@@ -429,63 +428,55 @@ def test_fallback_runtime_error_is_a_lua_error(tmp_path):
 
 
 # ------------------------------------------------------------------------------------------------
-# the real legacy files (when present)
+# legacy predicate files with their domains: the fixtures' planet and tmit-star trees (one Lua
+# file for two domains each, as in the original repositories) and the bundled legacy examples
 
 def _external(domain_path):
     dom = parse_source(SourceFile.read(domain_path)).definitions[0]
     return {p.name.text: p for p in dom.predicates if p.external}
 
 
-@pytest.mark.skipif(not LEGACY.exists(), reason="no /tmp/legacy checkout")
-@pytest.mark.parametrize("lua,domains", [
-    ("planet/clutter.lua", ["planet/clutter/clutter.pddl", "planet/clutter/clutter_nohit.pddl"]),
-    ("tmitstar/lua/predicates.lua", ["tmitstar/problems/clutter/pddl/domain.pddl",
-                                     "tmitstar/problems/shelves/pddl/domain.pddl"]),
-])
-def test_legacy_predicates_trace(lua, domains, capsys):
-    module = load_lua_predicates(LEGACY / lua)
+@pytest.mark.parametrize("lua,domains,dialect,helpers", [
+    (LEGACY / "planet" / "predicates.lua", [LEGACY / "planet" / "two-table-sort" / "domain.pddl",
+                                            LEGACY / "planet" / "cupboard-shelf" / "domain.pddl"],
+     "planet", {"gap"}),
+    (LEGACY / "tmit-star" / "lua" / "predicates.lua",
+     [LEGACY / "tmit-star" / "bin-picking" / "domain.pddl",
+      LEGACY / "tmit-star" / "shelf-restock" / "domain.pddl"], "tmit-star", set()),
+    (EXAMPLES / "planet-sort" / "sort.lua", [EXAMPLES / "planet-sort" / "domain.pddl"], "planet",
+     set()),
+    (EXAMPLES / "tmit-star-sort" / "predicates.lua", [EXAMPLES / "tmit-star-sort" / "domain.pddl"],
+     "tmit-star", set()),
+], ids=["planet-fixtures", "tmit-star-fixtures", "planet-sort", "tmit-star-sort"])
+def test_legacy_predicates_trace(lua, domains, dialect, helpers):
+    module = load_lua_predicates(lua)
+    assert module.dialect == dialect
     declared = {}
     for d in domains:
-        declared.update(_external(LEGACY / d))
+        declared.update(_external(d))
+    assert declared
     res = trace_module(module, declared)
-    assert set(res.traced) | set(res.fallbacks) == set(declared)
-    plain, rng = PlainLua(LEGACY / lua), np.random.default_rng(11)
+    # every geometric predicate of these files traces (none needs the direct fallback)
+    assert set(res.traced) == set(declared) and not res.fallbacks and not res.diagnostics
+    plain, rng = PlainLua(lua), np.random.default_rng(11)
     for name, node in res.traced.items():        # the traced IR computes what the file does
         boxes = [BOX if kind == "surface" else None for kind in res.arg_kinds[name]]
-        for _ in range(3):
+        for _ in range(4):
             poses = random_poses(rng, len(boxes))
             expected = max(plain(module.lookup(name), poses, boxes, module.dialect), 0.0)
             assert jax_distance(node, poses, boxes)[1] == pytest.approx(expected, abs=1e-9)
-    others = trace_module(module, {n: f.nparams for n, f in module.functions.items()
-                                   if n not in declared}, strict=False)
-    with capsys.disabled():
-        print(f"\n{lua} ({module.dialect}):")
-        for name in sorted(res.traced):
-            print(f"  traced    {name} {res.arg_kinds[name]}")
-        for name, fb in sorted(res.fallbacks.items()):
-            print(f"  fallback  {name}: {fb.reason}")
-        for name in sorted(others.traced):
-            print(f"  traced    {name} (not a PDDL predicate)")
-        for d in others.diagnostics:
-            print(f"  helper    {d.message}")
+    # the file's other functions are helpers: each traces or is reported, none is lost
+    rest = {n: f.nparams for n, f in module.functions.items() if n not in declared}
+    assert set(rest) == helpers
+    others = trace_module(module, rest, strict=False)
+    reported = {d.message.split("`")[1] for d in others.diagnostics}
+    assert set(others.traced) | reported == helpers
 
 
-def test_untraceable_lua_predicate_points_at_its_function(tmp_path):
+def test_untraceable_lua_predicate_points_at_its_function(untraceable_sort):
     """An untraceable predicate compiles to a `lua` node (kernels call its fallback, see
-    tests/test_lua_fallback_kernels.py); its record names the Lua function's line."""
-    import shutil
-
-    from tmpc.compiler.artifact import open_world
-    from tmpc.compiler.compile import CompiledProgram, external_predicates
-    ex = tmp_path / "ps"
-    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "planet-sort", ex)
-    lua = ex / "sort.lua"
-    text = lua.read_text()
-    head = text.index("\n", text.index("function at(")) + 1
-    lua.write_text(text[:head] + "  if m.pz > 2.0 then return False() end\n" + text[head:])
-    world = open_world(ex / "sort.toml")
-    compiled = CompiledProgram(world.program, world.scene, compile_world(world).model,
-                               external=external_predicates(world.config.semantics, world.program))
+    tests/compiler/test_lua_fallback_kernels.py); its record names the Lua function's line."""
+    compiled, lua = untraceable_sort.fallback, untraceable_sort.lua
     assert ir.show(compiled.predicate("at").body) == "(lua 'at' $arg0 $arg1)"
     bad = compiled.external["at"]
     assert bad.span.path.endswith("sort.lua") and bad.span.path in bad.files

@@ -3,34 +3,23 @@ on the host through jax.pure_callback, gradients by its dual numbers via custom_
 
 from __future__ import annotations
 
-import shutil
 import time
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import EXAMPLES
 from tmpc.compiler.compile import compile_world
-
-BRANCH = "  if m.pz > 2.0 then return False() end\n"
 
 
 @pytest.fixture(scope="module")
-def sort(tmp_path_factory):
-    """planet-sort with `at` made untraceable (a branch on the state), and the original."""
-    from tmpc.compiler.artifact import open_world
+def sort(untraceable_sort):
+    """planet-sort with `at` made untraceable (a branch on the state, tests/compiler/conftest.py),
+    and the original."""
     from tmpc.compiler.compile import CompiledProgram, external_predicates
     from tmpc.compiler.kernels import state_inputs
     from tmpc.compiler.state import initial_state
-    ex = tmp_path_factory.mktemp("lua-fb") / "ps"
-    shutil.copytree(EXAMPLES / "planet-sort", ex)
-    lua = ex / "sort.lua"
-    text = lua.read_text()
-    head = text.index("\n", text.index("function at(")) + 1
-    lua.write_text(text[:head] + BRANCH + text[head:])
-    world = open_world(ex / "sort.toml")
-    fb = CompiledProgram(world.program, world.scene, compile_world(world).model,
-                         external=external_predicates(world.config.semantics, world.program))
+    world, fb = untraceable_sort.world, untraceable_sort.fallback
     traced = CompiledProgram(world.program, world.scene, compile_world(world).model,
                              external=external_predicates(str(EXAMPLES / "planet-sort" /
                                                               "sort.lua"), world.program))
@@ -139,15 +128,17 @@ def test_projection_reaches_states_where_it_holds(sort):
 
 
 def test_artifact_skips_lua_kernels(sort, tmp_path):
-    from tmpc.compiler.artifact import exported_kernels
+    from tmpc.compiler.artifact import load_bank
     from tmpc.compiler.export import build_artifact
     world = sort[0]
     manifest = build_artifact(world, tmp_path / "ps.tmpa")
-    by = {(k["kind"], k["name"].lower()): k for k in manifest["kernels"]}
-    assert by[("predicate", "at")]["member"] is None and "Lua" in by[("predicate", "at")]["skipped"]
-    assert by[("predicate", "above")]["member"]
-    loaded = exported_kernels(tmp_path / "ps.tmpa", manifest)
-    assert ("predicate", "above") in loaded and ("predicate", "at") not in loaded
+    kernels, skipped = manifest["bank"]["kernels"], manifest["bank"]["skipped"]
+    # `at` calls its Lua function on the host: jax.export cannot serialize that
+    assert kernels["cond/predicate/at"] is None and "Lua" in skipped["cond/predicate/at"]
+    assert kernels["cond/predicate/above"]
+    loaded = load_bank(tmp_path / "ps.tmpa", manifest)
+    assert loaded.has_exported("cond/predicate/above")
+    assert not loaded.has_exported("cond/predicate/at")
 
 
 def test_throughput_fallback_vs_traced(sort, capsys):

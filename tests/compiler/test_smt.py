@@ -8,8 +8,8 @@ from collections import deque
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, FIXTURES, check
 
+from tests.support import EXAMPLES, FIXTURES, check
 from tmpc.compiler.ground import GeoLiteral, ground
 from tmpc.compiler.smt import encode, lmcut, smtlib_templates
 from tmpc.compiler.smt.mutex import mutex_groups, mutex_pairs

@@ -14,10 +14,9 @@ from types import SimpleNamespace
 
 import pytest
 
+from tests.support import CLUTTER
 from tmpc.lang.diagnostics import TmpcError
 
-ROOT = Path(__file__).resolve().parents[1]
-CLUTTER = ROOT / "examples" / "clutter" / "clutter.toml"
 SEEDS = 2
 TYPES = {"REAL", "INTEGER", "BOOLEAN", "ENUM"}
 
@@ -220,16 +219,7 @@ def test_table_has_one_row_per_problem_and_planner(swept, capsys):
     assert "0/2" in lines[2]                      # invalid / validated
 
 
-# ---- library-level: share one compiled problem ------------------------------------------------
-@pytest.fixture(scope="module")
-def clutter_problem():
-    import numpy as np
-
-    from tmpc.compiler.artifact import open_world
-    from tmpc.runtime.problem import TmpProblem
-    problem = TmpProblem(open_world(CLUTTER))
-    problem.warm_up(np.random.default_rng(0))
-    return problem
+# ---- library-level: share one compiled problem (clutter_problem_1, tests/conftest.py) ----------
 
 
 def _args(tmp_path, **kw):
@@ -240,7 +230,7 @@ def _args(tmp_path, **kw):
     return SimpleNamespace(**base)
 
 
-def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem, tmp_path, monkeypatch):
+def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem_1, tmp_path, monkeypatch):
     """A planner that returns `interrupted` (Ctrl-C inside its loop) ends the sweep; the runs so
     far are written, status `interrupted`."""
     from tmpc.runtime.bench import sweep as bc
@@ -258,7 +248,7 @@ def test_ctrl_c_stops_the_sweep_and_keeps_the_runs(clutter_problem, tmp_path, mo
     args = _args(tmp_path)
     bench = bc.Bench(args, ["unified"], ["clutter"])
     with pytest.raises(bc.Stop):
-        bench.problem(CLUTTER, "clutter", problem=clutter_problem)
+        bench.problem(CLUTTER, "clutter", problem=clutter_problem_1)
     bench.interrupted = True
     bench.finish()
     doc = json.loads(Path(args.output).read_text())
@@ -278,7 +268,7 @@ def _interrupted(result):
     return result
 
 
-def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monkeypatch):
+def test_keyboard_interrupt_outside_the_planner(clutter_problem_1, tmp_path, monkeypatch):
     """Ctrl-C outside the planner's loop (e.g. setting up the next run) also keeps the runs."""
     from tmpc.runtime.bench import sweep as bc
     from tmpc.runtime.cli.bench import run_bench
@@ -291,7 +281,7 @@ def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monke
         return real(name, problem, seed, args)
 
     monkeypatch.setattr(bc, "make_planner", fake)
-    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
+    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem_1)
     code = run_bench(_args(tmp_path))
     assert code == 130 and calls == [0, 1, 2]
     doc = json.loads((tmp_path / "r.json").read_text())
@@ -299,7 +289,7 @@ def test_keyboard_interrupt_outside_the_planner(clutter_problem, tmp_path, monke
     assert len(read_ompl_log(tmp_path / "r.log")["planners"]["unified"]["runs"]) == 2
 
 
-def test_a_crash_is_recorded_with_its_reproducer(clutter_problem, tmp_path, monkeypatch, capsys):
+def test_a_crash_is_recorded_with_its_reproducer(clutter_problem_1, tmp_path, monkeypatch, capsys):
     from tmpc.runtime.bench import sweep as bc
     from tmpc.runtime.cli.bench import run_bench
     class Boom:
@@ -307,7 +297,7 @@ def test_a_crash_is_recorded_with_its_reproducer(clutter_problem, tmp_path, monk
             raise RuntimeError("boom")
 
     monkeypatch.setattr(bc, "make_planner", lambda *a: Boom())
-    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
+    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem_1)
     code = run_bench(_args(tmp_path, seeds=1))
     assert code == 70
     (run,) = json.loads((tmp_path / "r.json").read_text())["runs"]
@@ -319,10 +309,10 @@ def test_a_crash_is_recorded_with_its_reproducer(clutter_problem, tmp_path, monk
     assert log["enums"]["status"][r["status"]] == "Crash"
 
 
-def test_several_problems_one_log_each(clutter_problem, tmp_path, monkeypatch):
+def test_several_problems_one_log_each(clutter_problem_1, tmp_path, monkeypatch):
     from tmpc.runtime.bench import sweep as bc
     from tmpc.runtime.cli.bench import run_bench
-    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem)
+    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem_1)
     code = run_bench(_args(tmp_path, inputs=[str(CLUTTER), str(CLUTTER)], seeds=1))
     assert code == 0
     doc = json.loads((tmp_path / "r.json").read_text())

@@ -6,7 +6,7 @@ import json
 import subprocess
 import sys
 
-from conftest import EXAMPLES
+from tests.support import EXAMPLES
 
 CLUTTER = [str(EXAMPLES / "clutter" / "domain.pddl"), str(EXAMPLES / "clutter" / "problem.pddl")]
 
@@ -107,9 +107,8 @@ def test_check_static_finds_geometry_nothing_can_satisfy(tmp_path):
     the joint and base bounds; one asking for a stick 5 m up is reported at its declaration, the
     bundled example is clean."""
     import shutil
-    from pathlib import Path
     ex = tmp_path / "clutter"
-    shutil.copytree(Path(__file__).resolve().parents[1] / "examples" / "clutter", ex)
+    shutil.copytree(EXAMPLES / "clutter", ex)
     dom = ex / "domain.pddl"
     dom.write_text(dom.read_text().replace(
         "(near ?m ?x 0.05)", "(and (near ?m ?x 0.05) (> (z (position ?x)) 5.0))"))

@@ -7,7 +7,8 @@ import subprocess
 import sys
 
 import pytest
-from conftest import EXAMPLES
+
+from tests.support import EXAMPLES
 
 TABLETOP = str(EXAMPLES / "tabletop" / "tabletop.toml")
 CLUTTER = str(EXAMPLES / "clutter" / "clutter.toml")

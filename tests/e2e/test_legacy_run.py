@@ -9,7 +9,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import EXAMPLES
+
+from tests.support import EXAMPLES
 
 SORT = EXAMPLES / "planet-sort" / "sort.toml"
 

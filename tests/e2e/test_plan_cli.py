@@ -8,8 +8,8 @@ import subprocess
 import sys
 
 import pytest
-from conftest import EXAMPLES, FIXTURES
 
+from tests.support import EXAMPLES, FIXTURES
 from tmpc.compiler.ground import ground
 from tmpc.lang.program import load_checked
 from tmpc.runtime.cli.main import main

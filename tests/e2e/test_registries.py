@@ -5,18 +5,16 @@ fixture of its format. Adding an entry without a fixture here fails."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
+from tests.support import FIXTURES, TABLETOP
 from tmpc.lang.source import SourceFile
 from tmpc.lang.world import load_scene
 from tmpc.lang.world.loaders import SCENE_LOADERS
 from tmpc.runtime.planners import PLANNERS
 
-ROOT = Path(__file__).resolve().parents[1]
-TABLETOP = ROOT / "examples" / "tabletop" / "tabletop.toml"
-SCENES = ROOT / "tests" / "fixtures" / "scenes"
+SCENES = FIXTURES / "scenes"
 #: one fixture per scene format, with an object it must contain
 SCENE_FIXTURES = {
     "tmpc-json": (SCENES / "native" / "scene.json", "crate"),
@@ -31,12 +29,11 @@ def test_every_planner_and_scene_format_has_a_case():
 
 
 @pytest.mark.parametrize("name", sorted(PLANNERS))
-def test_planner_plans_tabletop_and_the_plan_validates(name):
-    from tmpc.compiler.artifact import open_world
+def test_planner_plans_tabletop_and_the_plan_validates(name, tabletop_world):
     from tmpc.runtime.plans import parse_plan, plan_document
     from tmpc.runtime.solve import plan_problem
     from tmpc.runtime.validate import validate_plan
-    world = open_world(TABLETOP)
+    world = tabletop_world
     problem, result, _ = plan_problem(world, name, seed=0, time_limit=60.0)
     assert result.status == "solved", (name, result.status)
     doc = plan_document(problem, result, planner=name, seed=0, input_path=str(TABLETOP),

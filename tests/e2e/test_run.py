@@ -12,21 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support import CLUTTER, EXAMPLES
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
-ROOT = Path(__file__).resolve().parents[1]
-CLUTTER = ROOT / "examples" / "clutter" / "clutter.toml"
-
-
-@pytest.fixture(scope="session")
-def clutter_problem_1():
-    """The bundled 1-stick clutter problem, compiled once for every test here."""
-    from tmpc.compiler.artifact import open_world
-    from tmpc.runtime.problem import TmpProblem
-    problem = TmpProblem(open_world(CLUTTER))
-    problem.warm_up(np.random.default_rng(0))
-    return problem
+# clutter_problem_1: the bundled 1-stick clutter problem, shared (tests/conftest.py)
 
 
 def _solve(problem, seed, time_limit=60.0):
@@ -109,7 +99,7 @@ def _tmpc(*args, cwd=None):
 
 
 def _world_dir(tmp_path, scene: dict, problem: str) -> Path:
-    shutil.copy(ROOT / "examples" / "clutter" / "domain.pddl", tmp_path / "domain.pddl")
+    shutil.copy(EXAMPLES / "clutter" / "domain.pddl", tmp_path / "domain.pddl")
     (tmp_path / "scene.json").write_text(json.dumps(scene))
     (tmp_path / "problem.pddl").write_text(problem)
     cfg = tmp_path / "run.toml"
@@ -184,7 +174,7 @@ def test_configuration_time_limit_and_output(tmp_path):
     """The configuration's time limit and output apply when the command line gives none (a
     planet user expects the plan where the run TOML says)."""
     ex = tmp_path / "clutter"
-    shutil.copytree(ROOT / "examples" / "clutter", ex)
+    shutil.copytree(EXAMPLES / "clutter", ex)
     cfg = ex / "clutter.toml"
     cfg.write_text(cfg.read_text() + '\n[planner]\ntime_limit = 0.000001\noutput = "out.json"\n')
     r = _tmpc("run", cfg, "-q")
@@ -201,7 +191,7 @@ def test_configuration_time_limit_and_output(tmp_path):
 
 
 def test_pddl_file_instead_of_a_configuration():
-    r = _tmpc("run", ROOT / "examples" / "blocksworld" / "domain.pddl")
+    r = _tmpc("run", EXAMPLES / "blocksworld" / "domain.pddl")
     assert r.returncode == 1 and "E827" in r.stderr and "tmpc plan" in r.stderr, r.stderr
 
 
@@ -209,7 +199,7 @@ def test_geometric_goal_is_projected_and_validated(tmp_path):
     """A goal with a geometric literal: the planner projects onto it in the goal mode, and the
     independent validator confirms it at the last state."""
     ex = tmp_path / "tabletop"
-    shutil.copytree(ROOT / "examples" / "tabletop", ex)
+    shutil.copytree(EXAMPLES / "tabletop", ex)
     prob = ex / "problem.pddl"
     prob.write_text(prob.read_text().replace(
         "(:goal (and (on red_cube tray) (on blue_cube tray))))",

@@ -8,23 +8,15 @@ import subprocess
 import sys
 
 import pytest
-from conftest import EXAMPLES
 
+from tests.support import TABLETOP
 from tmpc.compiler.compile import compile_world
 from tmpc.runtime.collision import collision_world
-
-TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
 
 
 def run(*args, stdin=None):
     return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "sample", *args],
                           capture_output=True, text=True, input=stdin)
-
-
-@pytest.fixture(scope="module")
-def world():
-    from tmpc.compiler.artifact import open_world
-    return open_world(TABLETOP)
 
 
 def _holds(world, state_json, text):
@@ -43,7 +35,8 @@ def _holds(world, state_json, text):
     (["--predicate", "reach", "panda_hand_tcp", "red_cube"], "(reach panda_hand_tcp red_cube)"),
     (["--action", "place", "panda_hand_tcp", "red_cube", "tray"], "(over panda_hand_tcp tray)"),
 ])
-def test_sampled_states_satisfy_and_are_valid(world, what, check):
+def test_sampled_states_satisfy_and_are_valid(tabletop_world, what, check):
+    world = tabletop_world
     r = run(str(TABLETOP), *what, "-n", "4", "--seed", "7")
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().splitlines()

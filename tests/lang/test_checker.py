@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from conftest import check, codes, errors
+
+from tests.support import check, codes, errors
 
 DOMAIN = """
 (define (domain d)

@@ -13,8 +13,8 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
 
+from tests.support import ROOT
 from tmpc.lang import codes
 from tmpc.lang.codes import CODES, Code, lookup
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticCodeError, Severity, error, warning

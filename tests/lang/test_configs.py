@@ -7,10 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-from conftest import EXAMPLES, FIXTURES
-from test_scenes import pos_of, raises, where
-
+from tests.support import DOCS, EXAMPLES, FIXTURES, LEGACY, pos_of, raises, where
+from tmpc.lang.diagnostics import SceneError
 from tmpc.lang.source import SourceFile
 from tmpc.lang.world import LoadReport, load_allowed_pairs, load_scene
 from tmpc.lang.world.configs import (
@@ -26,7 +24,6 @@ SCENES = FIXTURES / "scenes"
 NATIVE = CONFIGS / "native" / "run.toml"
 PLANET = CONFIGS / "planet" / "run.toml"
 TMIT = CONFIGS / "tmit" / "problems" / "demo" / "problems" / "demo.json"
-LEGACY = Path("/tmp/legacy")
 
 
 def check_error(code: str, path: Path, needle: str | None, nth: int = 0):
@@ -106,7 +103,7 @@ def test_toml_positions():
 
 
 def test_planner_params_are_documented():
-    text = (Path(__file__).resolve().parent.parent / "docs" / "world.md").read_text()
+    text = (DOCS / "world.md").read_text()
     for name in PLANNER_PARAMS:
         assert f"`{name}`" in text
 
@@ -207,9 +204,8 @@ def test_tmit_spec_errors(tmp_path):
 
 
 def test_wrong_kind_of_file_and_unknown_format(tmp_path):
-    if LEGACY.is_dir():
-        diag, _ = raises("E503", load_config, LEGACY / "planet" / "params.toml")
-        assert "params file" in diag.message
+    diag, _ = raises("E503", load_config, LEGACY / "planet" / "params.toml")
+    assert "params file" in diag.message
     diag, _ = raises("E503", load_config, SCENES / "native" / "scene.json")
     assert "scene, not a run configuration" in diag.message
     diag, _ = raises("E503", load_config, NATIVE, fmt="toml")
@@ -228,33 +224,49 @@ def test_config_loader_does_not_import_heavy_modules():
 # the real legacy configurations
 
 
-@pytest.mark.skipif(not LEGACY.is_dir(), reason="no legacy files at /tmp/legacy")
 def test_every_legacy_config_loads():
-    planet = load_config(LEGACY / "planet" / "clutter.toml")
+    """The legacy configurations of tests/fixtures/legacy: planet run TOMLs (+ params TOML) and
+    every tmit-star problem spec but the one that names a missing scene."""
+    root = LEGACY / "planet"
+    planet = load_config(root / "two-table-sort.toml")
     assert planet.format == "planet-toml" and planet.params == (("coin_bias", 0.4),)
-    assert planet.mesh_dir == LEGACY / "planet" / "clutter"
-    assert planet.allowed_collisions == LEGACY / "planet" / "models" / "pr2_collision_blacklist.csv"
-    assert load_planet_params(LEGACY / "planet" / "params.toml") == (("coin_bias", 0.4),)
-    scene = load_scene(planet.scene, mesh_dir=planet.mesh_dir, strict_meshes=False)
-    assert scene.format == "planet-xml"
+    assert planet.mesh_dir == root / "two-table-sort"
+    assert planet.allowed_collisions == root / "models" / "pr2_collision_blacklist.csv"
+    assert planet.semantics == root / "predicates.lua" and planet.time_limit == 700.0
+    assert load_planet_params(root / "params.toml") == (("coin_bias", 0.4),)
+    runs = sorted(p for p in root.glob("*.toml") if p.name != "params.toml")
+    assert [p.name for p in runs] == ["cupboard-shelf.toml", "two-table-sort.toml"]
+    for f in runs:
+        report = LoadReport()
+        c = load_config(f, report=report)
+        assert c.format == "planet-toml" and report.warnings == []
+        assert c.domain.is_file() and c.problem.is_file() and c.semantics.is_file()
+        scene = load_scene(c.scene, mesh_dir=c.mesh_dir, strict_meshes=False)
+        assert scene.format == "planet-xml"
+    assert load_config(root / "cupboard-shelf.toml").params == ()      # no params file
 
-    specs = sorted((LEGACY / "tmitstar" / "problems").glob("*/problems/*.json"))
+    tmit = LEGACY / "tmit-star"
+    specs = sorted(tmit.glob("*/problems/*.json"))
     loaded, broken = [], []
     for f in specs:
+        name = str(f.relative_to(tmit))
         try:
             c = load_config(f)
-        except Exception as exc:       # noqa: BLE001 - recorded and checked below
-            broken.append((f.name, exc))
+        except SceneError as exc:
+            broken.append((name, exc))
             continue
         assert c.format == "tmit-star-json" and c.scene.is_file()
-        load_scene(c.scene, strict_meshes=False)
-        loaded.append(f.name)
-    # clutter_testing_xacro.json names a scene that the tmit-star repository does not contain
-    assert [name for name, _ in broken] == ["clutter_testing_xacro.json"]
+        assert c.semantics == tmit / "lua" / "predicates.lua"      # found in an ancestor
+        assert c.allowed_collisions == tmit / "models" / "pr2_blocklist.csv"
+        assert load_scene(c.scene, strict_meshes=False).format == "tmit-star-json"
+        loaded.append(name)
+    # shelf-restock/problems/pb_2.json names a scene the fixtures do not contain
+    assert [name for name, _ in broken] == ["shelf-restock/problems/pb_2.json"]
     assert broken[0][1].diagnostics[0].code == "E515"
-    print(f"legacy configs: 2 planet TOML (run + params), {len(loaded)} of {len(specs)} "
-          "tmit-star specs")
-    assert len(loaded) >= 36
+    assert loaded == ["bin-picking/problems/pb_1.json", "bin-picking/problems/pb_2.json",
+                      "shelf-restock/problems/pb_1.json"]
+    assert dict(load_config(tmit / "bin-picking" / "problems" / "pb_1.json").params) == \
+        {"name": "bin-picking-1", "min_steps": 2, "max_steps": 12}
 
 
 def test_native_manifest_sets_the_collision_tolerance(tmp_path):
@@ -278,9 +290,8 @@ def test_check_of_a_run_config_checks_what_it_names(tmp_path):
     import shutil
     import subprocess
     import sys
-    root = Path(__file__).resolve().parents[1]
     ex = tmp_path / "ps"
-    shutil.copytree(root / "examples" / "planet-sort", ex)
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
     ok = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
                         capture_output=True, text=True)
     assert ok.returncode == 0 and "problem" in ok.stderr, ok.stderr

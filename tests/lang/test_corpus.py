@@ -7,8 +7,8 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import EXAMPLES, STDLIB, example_programs, pddl_files, program_dirs
 
+from tests.support import EXAMPLES, STDLIB, example_programs, pddl_files, program_dirs
 from tmpc.lang.diagnostics import sort_key
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.program import check_paths

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from conftest import EXAMPLES, FIXTURES, STDLIB, check
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.support import EXAMPLES, FIXTURES, STDLIB, check
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.reader import parse_source
 from tmpc.lang.source import SourceFile

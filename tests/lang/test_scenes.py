@@ -1,5 +1,5 @@
 """Scene loading: JSON with positions, the three scene formats, their errors, the CSV loader,
-and every real legacy scene when /tmp/legacy is present."""
+and every legacy scene of tests/fixtures/legacy."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import FIXTURES
 
+from tests.support import FIXTURES, LEGACY, pos_of, raises, where
 from tmpc.lang.diagnostics import SceneError, Severity
 from tmpc.lang.jsonpos import parse_json, pointer
 from tmpc.lang.source import SourceFile
@@ -29,35 +29,11 @@ SCENES = FIXTURES / "scenes"
 NATIVE = SCENES / "native" / "scene.json"
 TMIT = SCENES / "tmit" / "problems" / "demo" / "scenes" / "demo_scene.json"
 PLANET = SCENES / "planet" / "demo" / "demo.xml"
-LEGACY = Path("/tmp/legacy")
 S2 = math.sqrt(0.5)
 
 
 # --------------------------------------------------------------------------------------------
 # helpers
-
-
-def raises(code: str, fn, *args, **kwargs):
-    """Call ``fn``; it must raise SceneError with a ``code`` diagnostic. Returns (diag, files)."""
-    with pytest.raises(SceneError) as info:
-        fn(*args, **kwargs)
-    diags = [d for d in info.value.diagnostics if d.code == code]
-    assert diags, f"expected {code}, got {[(d.code, d.message) for d in info.value.diagnostics]}"
-    return diags[0], info.value.files
-
-
-def where(diag, files) -> tuple[int, int]:
-    """1-based (line, column) of a diagnostic's span."""
-    assert diag.span is not None, diag
-    return files[diag.span.path].line_col(diag.span.start)
-
-
-def pos_of(text: str, needle: str, nth: int = 0) -> tuple[int, int]:
-    """1-based (line, column) of the ``nth`` occurrence of ``needle`` in ``text``."""
-    i = -1
-    for _ in range(nth + 1):
-        i = text.index(needle, i + 1)
-    return SourceFile("x", text).line_col(i)
 
 
 def check_error(code: str, path: Path, needle: str, nth: int = 0, **kwargs):
@@ -570,57 +546,69 @@ def test_loaders_do_not_import_heavy_modules():
     assert out.stdout.strip() == "[]"
 
 
-@pytest.mark.skipif(not LEGACY.is_dir(), reason="no legacy files at /tmp/legacy")
+PR2 = "package://example-robot-data/robots/pr2_description/urdf/pr2.urdf"
+
+
 def test_every_legacy_scene_loads():
-    planet = sorted((LEGACY / "planet" / "clutter").glob("*.xml"))
-    tmit = sorted((LEGACY / "tmitstar" / "problems").glob("*/scenes/*.json"))
+    """Every legacy scene of tests/fixtures/legacy (planet XML beside its PDDL, tmit-star JSON in
+    <task>/scenes/, laid out as the two repositories lay theirs out) loads; their meshes are not
+    shipped, so the only warnings are W501."""
+    planet = sorted((LEGACY / "planet").glob("*/*.xml"))
+    tmit = sorted((LEGACY / "tmit-star").glob("*/scenes/*.json"))
     warnings = LoadReport()
     for f in planet:
-        s = load_scene(f, mesh_dir=LEGACY / "planet" / "clutter", strict_meshes=False,
-                       report=warnings)
-        assert s.format == "planet-xml" and s.robot.name == "pr2" and s.objects
+        s = load_scene(f, mesh_dir=f.parent, strict_meshes=False, report=warnings)
+        assert s.format == "planet-xml" and s.robot.name == "pr2" and s.robot.mobile_base
+        assert s.objects
     for f in tmit:
         s = load_scene(f, strict_meshes=False, report=warnings)
-        assert s.format == "tmit-star-json" and s.robot.mobile_base
-    assert {w.code for w in warnings.warnings} <= {"W501"}      # only the absent meshes
-    print(f"legacy scenes: {len(planet)} planet XML, {len(tmit)} tmit-star JSON")
-    assert len(planet) == 17 and len(tmit) >= 39
+        assert s.format == "tmit-star-json" and s.robot.mobile_base and s.objects
+    assert warnings.warnings and {w.code for w in warnings.warnings} == {"W501"}
+    assert (len(planet), len(tmit)) == (3, 3)
 
-    # planet: table1 is R = [[0,-1,0],[1,0,0],[0,0,1]] at (2.2, 0, 0); bs1 unrotated
-    c1 = load_scene(LEGACY / "planet" / "clutter" / "clutter_1.xml", strict_meshes=False)
-    assert close(c1.object("table1").pose.rotation, (0, 0, S2, S2))
-    assert close(c1.object("table1").pose.translation, (2.2, 0, 0))
-    assert close(c1.object("table2").pose.rotation, (0, 0, S2, S2))
-    assert c1.object("bs1").pose == Pose((2.1, 0.5, 0.767), (0, 0, 0, 1))
-    assert c1.object("table1").support == Box((-0.75, -0.35, 0.767), (0.75, 0.35, 0.767))
-    assert dict(c1.robot.joint_values)["torso_lift_joint"] == 0.1
-    # tmit-star gives the same table (same pose) world-aligned bounds; in the object frame they
-    # agree with planet's sssp in x and y
-    t1 = load_scene(LEGACY / "tmitstar" / "problems" / "clutter" / "scenes" /
-                    "pb_1_initial_scene.json", strict_meshes=False)
-    table = t1.object("table_1")
-    assert close(table.pose.rotation, c1.object("table1").pose.rotation, 1e-6)
-    assert close(table.support.lower[:2], (-0.75, -0.35)) and close(table.support.upper[:2],
-                                                                     (0.75, 0.35))
+    # planet: mixtable is R = [[0,-1,0],[1,0,0],[0,0,1]] at (1.6, 0, 0); red1 unrotated
+    c1 = load_scene(LEGACY / "planet" / "two-table-sort" / "scene_1.xml", strict_meshes=False)
+    mix = c1.object("mixtable")
+    assert close(mix.pose.rotation, (0, 0, S2, S2)) and close(mix.pose.translation, (1.6, 0, 0))
+    assert mix.support == Box((-0.6, -0.3, 0.72), (0.6, 0.3, 0.72))
+    assert c1.object("red1").pose == Pose((1.5, 0.1, 0.82), (0, 0, 0, 1))
+    assert not mix.movable and c1.object("red1").movable
+    assert dict(c1.robot.joint_values)["torso_lift_joint"] == 0.1        # from <torso>
+    assert dict(c1.robot.joint_values)["l_elbow_flex_joint"] == -2.0
+    # tmit-star's bin-picking work table is the same table (same pose) with its top written
+    # world-aligned (x +-0.3, y +-0.6); in the object frame it is planet's sssp
+    t1 = load_scene(LEGACY / "tmit-star" / "bin-picking" / "scenes" / "pb_1_initial_scene.json",
+                    strict_meshes=False)
+    table = t1.object("work_table")
+    assert close(table.pose.rotation, mix.pose.rotation, 1e-6)
+    assert close(table.pose.translation, mix.pose.translation)
+    assert close(table.support.lower, mix.support.lower) and close(table.support.upper,
+                                                                   mix.support.upper)
+    assert dict(t1.robot.joint_values)["torso_lift_joint"] == 0.1
 
 
-@pytest.mark.skipif(not LEGACY.is_dir(), reason="no legacy files at /tmp/legacy")
 def test_legacy_meshes_from_a_fallback_dir(tmp_path):
-    for name in ("table.obj", "stick_blue.obj", "stick_green.obj", "stick_red.obj", "arena.obj"):
+    for name in ("table.obj", "bolt.obj", "bracket.obj", "cylinder_red.obj", "cylinder_green.obj"):
         (tmp_path / name).write_text("v 0 0 0\n")
-    s = load_scene(LEGACY / "tmitstar" / "problems" / "clutter" / "scenes" /
-                   "pb_1_initial_scene.json", mesh_fallback_dirs=[tmp_path])
-    assert s.object("table_1").shape.mesh == tmp_path / "table.obj"
-    s = load_scene(LEGACY / "planet" / "clutter" / "clutter_1.xml",
+    s = load_scene(LEGACY / "tmit-star" / "bin-picking" / "scenes" / "pb_1_initial_scene.json",
+                   mesh_fallback_dirs=[tmp_path])               # "models/table.obj": by name
+    assert s.object("work_table").shape.mesh == tmp_path / "table.obj"
+    assert s.object("bracket_A").shape.mesh == tmp_path / "bracket.obj"
+    s = load_scene(LEGACY / "planet" / "two-table-sort" / "scene_1.xml",
                    mesh_dir=tmp_path / "no-such-dir", mesh_fallback_dirs=[tmp_path])
-    assert s.object("arena").shape.mesh == tmp_path / "arena.obj"
+    assert s.object("mixtable").shape.mesh == tmp_path / "table.obj"
+    assert s.object("green2").shape.mesh == tmp_path / "cylinder_green.obj"
 
 
-@pytest.mark.skipif(not LEGACY.is_dir(), reason="no legacy files at /tmp/legacy")
 def test_legacy_collision_lists():
-    for f in sorted(LEGACY.glob("*/models/*.csv")):
+    from tmpc.lang.world import load_urdf
+    links = {link.name for link in load_urdf(PR2).links}
+    files = sorted(LEGACY.glob("*/models/*.csv"))
+    assert [f.parent.parent.name for f in files] == ["planet", "tmit-star"]
+    for f in files:
         pairs = load_allowed_pairs(f)
         assert pairs and all(a and b for a, b in pairs)
+        assert {name for pair in pairs for name in pair} <= links, f
 
 
 # --------------------------------------------------------------------------------------------

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from conftest import check
 
+from tests.support import check
 from tmpc.lang.program import Workspace, check_parsed, stdlib_modules
 
 GEOMETRY_USES = {

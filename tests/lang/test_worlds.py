@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import EXAMPLES, check
 
+from tests.support import EXAMPLES, check
 from tmpc.compiler.compile import compile_world
 from tmpc.lang.world.generate import clutter_problem, clutter_scene, tabletop_scene
 from tmpc.runtime.collision import collision_world
@@ -38,10 +38,9 @@ def test_bundled_examples_match_their_generators():
     assert json.loads((EXAMPLES / "tabletop" / "scene.json").read_text()) == tabletop_scene()
 
 
-def test_tabletop_starts_valid_with_the_hand_over_the_bench():
-    from tmpc.compiler.artifact import open_world
+def test_tabletop_starts_valid_with_the_hand_over_the_bench(tabletop_world):
     from tmpc.compiler.state import initial_state
-    world = open_world(EXAMPLES / "tabletop" / "tabletop.toml")
+    world = tabletop_world
     st = initial_state(world.scene, compile_world(world).model)
     assert collision_world(world, compile_world(world)).check(st.q, poses=st.poses).valid
     tcp = compile_world(world).fk(st.q).p[compile_world(world).model.frame("panda_hand_tcp")]

@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import math
 
+import fcl  # python-fcl: a runtime dependency (pyproject), so no skip without it
 import numpy as np
 import pytest
 
 from tmpc.lang.diagnostics import SceneError
 from tmpc.lang.world import load_urdf
 from tmpc.lang.world.scene import Pose, RobotSpec, Scene, SceneObject, Shape
-
-fcl = pytest.importorskip("fcl")
 
 ROBOTS = {
     "pr2": "package://example-robot-data/robots/pr2_description/urdf/pr2.urdf",
@@ -87,7 +86,10 @@ def q_with(model, **values):
 
 
 def test_pr2_default_configuration_is_free_and_allowed_pairs_come_from_srdf_and_tree(pr2):
-    from tmpc.runtime.collision.world import find_srdf, srdf_disabled_pairs  # re-exported
+    from tmpc.runtime.collision.world import (  # re-exported
+        find_srdf,
+        srdf_disabled_pairs,
+    )
     model, _ = pr2
     w = world(pr2)
     assert w.check(model.default_q).valid

@@ -8,8 +8,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, FIXTURES
 
+from tests.support import EXAMPLES, FIXTURES
 from tmpc.compiler.ground import bits, ground, relaxed_holds
 from tmpc.lang.program import Workspace, check_parsed, load_checked
 from tmpc.lang.source import SourceFile

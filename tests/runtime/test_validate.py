@@ -10,18 +10,16 @@ import subprocess
 import sys
 
 import pytest
-from conftest import EXAMPLES, FIXTURES
 
-TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
-CLUTTER = EXAMPLES / "clutter" / "clutter.toml"
+from tests.support import EXAMPLES, FIXTURES, TABLETOP
+
 PLANS = FIXTURES / "plans"
 
 
 @pytest.fixture(scope="module")
-def tabletop():
-    from tmpc.compiler.artifact import open_world
+def tabletop(tabletop_world):
     from tmpc.runtime.validate.core import Validator
-    return Validator(open_world(TABLETOP))
+    return Validator(tabletop_world)
 
 
 @pytest.fixture
@@ -57,10 +55,9 @@ def test_tabletop_fixture_is_valid(tabletop, plan):
     assert rep.summary().startswith("valid: 9 states, 4 actions, ")
 
 
-def test_clutter_pr2_fixture_is_valid():
-    from tmpc.compiler.artifact import open_world
+def test_clutter_pr2_fixture_is_valid(clutter_world):
     from tmpc.runtime.validate import validate_plan
-    rep = validate_plan(open_world(CLUTTER), str(PLANS / "clutter.json"))
+    rep = validate_plan(clutter_world, str(PLANS / "clutter.json"))
     assert rep.valid, rep.text()
     assert rep.actions == 2 and rep.motion_checks > 20
 

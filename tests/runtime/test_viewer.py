@@ -13,10 +13,9 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, FIXTURES
 
-TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
-CLUTTER = EXAMPLES / "clutter" / "clutter.toml"
+from tests.support import CLUTTER, FIXTURES, TABLETOP
+
 PLANS = FIXTURES / "plans"
 
 

@@ -1,0 +1,89 @@
+"""Plain helpers shared by the tests (imported as ``from tests.support import ...``): the
+checkout's folders, the fixture corpus and a parse/check shortcut. Fixtures live in conftest.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TESTS = ROOT / "tests"
+FIXTURES = TESTS / "fixtures"
+EXAMPLES = ROOT / "examples"
+STDLIB = ROOT / "stdlib"
+DOCS = ROOT / "docs"
+#: legacy-format inputs written for the tests (planet and tmit-star layouts, no third-party file)
+LEGACY = FIXTURES / "legacy"
+
+TABLETOP = EXAMPLES / "tabletop" / "tabletop.toml"
+CLUTTER = EXAMPLES / "clutter" / "clutter.toml"
+
+
+def program_dirs(*groups: str) -> list[Path]:
+    """Fixture folders holding one domain and its problems (corpus tests glob these)."""
+    out = []
+    for g in groups:
+        base = FIXTURES / g
+        out += sorted(p.parent for p in base.rglob("domain.pddl"))
+    return out
+
+
+def pddl_files(*groups: str) -> list[Path]:
+    out = []
+    for g in groups:
+        out += sorted((FIXTURES / g).rglob("*.pddl"))
+    return out
+
+
+def example_programs() -> list[list[Path]]:
+    """Each example folder: its domain first, then its problems."""
+    progs = []
+    for d in sorted(p.parent for p in EXAMPLES.rglob("domain.pddl")):
+        probs = sorted(p for p in d.glob("*.pddl") if p.name != "domain.pddl")
+        progs.append([d / "domain.pddl", *probs])
+    return progs
+
+
+def check(text: str, path: str = "test.pddl"):
+    """Check one in-memory file (domain and/or problem). Returns the CheckReport."""
+    from tmpc.lang.program import Workspace, check_parsed
+    from tmpc.lang.source import SourceFile
+    ws = Workspace()
+    parsed = ws.add_source(SourceFile(path, text))
+    return check_parsed(ws, [parsed])
+
+
+def codes(report) -> list[str]:
+    return [d.code for d in report.diagnostics]
+
+
+def errors(report) -> list[str]:
+    return [d.code for d in report.diagnostics if d.is_error]
+
+
+# ---- diagnostics of the world loaders (scenes and run configurations) ----------------------------
+
+def raises(code: str, fn, *args, **kwargs):
+    """Call ``fn``; it must raise SceneError with a ``code`` diagnostic. Returns (diag, files)."""
+    import pytest
+
+    from tmpc.lang.diagnostics import SceneError
+    with pytest.raises(SceneError) as info:
+        fn(*args, **kwargs)
+    diags = [d for d in info.value.diagnostics if d.code == code]
+    assert diags, f"expected {code}, got {[(d.code, d.message) for d in info.value.diagnostics]}"
+    return diags[0], info.value.files
+
+
+def where(diag, files) -> tuple[int, int]:
+    """1-based (line, column) of a diagnostic's span."""
+    assert diag.span is not None, diag
+    return files[diag.span.path].line_col(diag.span.start)
+
+
+def pos_of(text: str, needle: str, nth: int = 0) -> tuple[int, int]:
+    """1-based (line, column) of the ``nth`` occurrence of ``needle`` in ``text``."""
+    from tmpc.lang.source import SourceFile
+    i = -1
+    for _ in range(nth + 1):
+        i = text.index(needle, i + 1)
+    return SourceFile("x", text).line_col(i)
