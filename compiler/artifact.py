@@ -30,10 +30,12 @@ import json
 import os
 import shutil
 import tempfile
+import warnings
 import zipfile
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+from tmpc.compiler.bank import KernelBank
 from tmpc.compiler.cache import cache_root
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.inputs import load_world
@@ -130,17 +132,18 @@ def is_artifact(path: str | Path) -> bool:
         return False
 
 
-def exported_kernels(path: str | Path, manifest: dict) -> dict[tuple[str, str], object]:
-    """Deserialized kernels by (kind, lower-case name), or {} when JAX's version differs (the
-    caller rebuilds them from the sources)."""
+def load_bank(path: str | Path, manifest: dict) -> KernelBank:
+    """The artifact's exported kernels as a :class:`KernelBank` (deserialized on first use). A
+    different JAX version cannot be trusted to read them: an empty bank, with a warning naming
+    the kernels that will be traced from the embedded sources instead."""
+    section = manifest.get("bank") or {}
+    entries = section.get("kernels") or {}
     if manifest.get("jax") != package_version("jax"):
-        return {}
-    from jax import export
+        if entries:
+            warnings.warn(f"{path}: kernels exported by JAX {manifest.get('jax')}, this is JAX "
+                          f"{package_version('jax')}: tracing {', '.join(sorted(entries))} "
+                          "from the artifact's sources instead", stacklevel=2)
+        return KernelBank()
     _, z = read_manifest(path)
-    out = {}
-    for k in manifest.get("kernels", []):
-        if not k.get("member"):
-            continue                # not serializable (calls Lua on the host): rebuild it
-        exp = export.deserialize(bytearray(z.read(k["member"])))
-        out[(k["kind"], k["name"].lower())] = exp.call
-    return out
+    exported = {key: z.read(member) for key, member in entries.items() if member}
+    return KernelBank.load(exported, section.get("skipped", {}), str(path))

@@ -1,12 +1,115 @@
-"""The user cache directory: ``$TMPC_CACHE_DIR``, else ``~/.cache/tmpc``. Below it: ``jax/`` (XLA's
-persistent compilation cache), ``exports/`` (serialized kernels by source digest) and
-``artifacts/`` (extracted artifacts by manifest digest)."""
+"""The user cache directory and the content-addressed artifact cache.
+
+``$TMPC_CACHE_DIR``, else ``~/.cache/tmpc``. Below it:
+
+* ``jax/`` — XLA's persistent compilation cache;
+* ``exports/`` — serialized kernels by (sources, kernel, versions), reused by ``tmpc compile``;
+* ``runs/`` — artifacts compiled for ``tmpc run CONFIG``, named by :func:`source_key`: the digests
+  of every file the run reads (configuration, domain, problem, scene, Lua predicates, allowed
+  pairs, URDF, SRDF, meshes) with the tmpc and JAX versions and the compile options. An unchanged
+  problem is compiled once; a changed byte anywhere compiles anew;
+* ``artifacts/`` — artifacts extracted for running, by manifest digest.
+
+Every file is written atomically (temporary file, then rename), so concurrent runs never see a
+partial artifact; two runs compiling the same problem at once both write a complete one and the
+last rename wins.
+"""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
+import shutil
+from dataclasses import dataclass
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
+
+from tmpc.lang.world import find_srdf, load_urdf
+
+#: the sub-directories `tmpc cache info` reports and `tmpc cache clear` empties
+PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
+         "artifacts": "artifacts extracted for running",
+         "exports": "serialized kernels reused by `tmpc compile`",
+         "jax": "XLA's persistent compilation cache"}
 
 
 def cache_root() -> Path:
     return Path(os.environ.get("TMPC_CACHE_DIR") or os.path.join(Path.home(), ".cache", "tmpc"))
+
+
+def _version(pkg: str) -> str:
+    try:
+        return version(pkg)
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def source_files(world) -> list[Path]:
+    """Every file a run of ``world`` reads: the sources loaded (configuration, PDDL, scene), the
+    Lua predicates, the allowed-collision list, the robot's URDF and SRDF, and every mesh."""
+    files = {Path(p) for p in world.files if not str(p).startswith("<")}
+    cfg, scene = world.config, world.scene
+    if cfg is not None:
+        files.update(Path(p) for p in (cfg.semantics, cfg.allowed_collisions) if p)
+    if scene.robot is not None:
+        tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        files.add(Path(tree.path))
+        srdf = find_srdf(Path(tree.path))
+        if srdf is not None:
+            files.add(Path(srdf))
+        files.update(Path(g.shape.mesh) for link in tree.links for g in link.collision
+                     if g.shape.mesh is not None)
+    for obj in scene.objects:
+        if obj.shape.mesh is not None:
+            files.add(Path(obj.shape.mesh))
+    return sorted(f for f in files if f.is_file())
+
+
+def source_key(world, options) -> str:
+    """The cache key of a run of ``world``: its files' contents, tmpc and JAX, the options."""
+    h = hashlib.sha256()
+    for f in source_files(world):
+        h.update(str(f.resolve()).encode() + b"\0" + hashlib.sha256(f.read_bytes()).digest())
+    h.update(json.dumps([_version("tmpc"), _version("jax"), repr(options)]).encode())
+    return h.hexdigest()[:32]
+
+
+def run_artifact(key: str) -> Path:
+    return cache_root() / "runs" / f"{key}.tmpa"
+
+
+@dataclass(frozen=True)
+class PartInfo:
+    name: str
+    path: Path
+    files: int
+    bytes: int
+    what: str
+
+
+def cache_info() -> list[PartInfo]:
+    """What the cache holds, per part."""
+    out = []
+    for name, what in PARTS.items():
+        path = cache_root() / name
+        n = size = 0
+        if path.is_dir():
+            for p in path.rglob("*"):
+                if p.is_file():
+                    n += 1
+                    size += p.stat().st_size
+        out.append(PartInfo(name, path, n, size, what))
+    return out
+
+
+def clear_cache(parts: list[str] | None = None) -> list[PartInfo]:
+    """Empty the given parts (all by default); returns what was removed."""
+    removed = []
+    for info in cache_info():
+        if parts and info.name not in parts:
+            continue
+        if info.path.is_dir():
+            shutil.rmtree(info.path, ignore_errors=True)
+            removed.append(info)
+    return removed

@@ -14,20 +14,26 @@ of the geometric literals of its precondition's top-level ``and``.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Callable
 
 import numpy as np
 
 from tmpc.compiler import ir
+from tmpc.compiler.artifact import load_bank
+from tmpc.compiler.bank import F64, I64, KernelBank
 from tmpc.compiler.ground import ground as ground_program
 from tmpc.compiler.jaxcfg import configured
 from tmpc.compiler.kernels import (
-    KernelWorld,
+    KernelTables,
     Options,
-    build_world,
+    build_tables,
     condition_kernel,
+    has_lua_calls,
     lua_host_call,
+    projector_fn,
     residual_kernel,
 )
 from tmpc.compiler.lower import Lowerer
@@ -40,13 +46,30 @@ from tmpc.lang.lua import load_lua_predicates
 from tmpc.lang.world import Scene
 
 
-@dataclass(frozen=True)
 class Formula:
-    """A lifted geometric condition: ``body`` over ``Arg(i)`` = ``params[i]``."""
+    """A lifted geometric condition: ``body`` (IR) over ``Arg(i)`` = ``params[i]``. ``kind`` is
+    ``predicate``, ``action`` or ``goal``; ``key`` names its kernels in the bank. The body is
+    lowered on first use: a run whose kernels come from an artifact never asks for it."""
 
-    name: str
-    params: tuple[A.Typed, ...]
-    body: ir.Node
+    __slots__ = ("name", "params", "kind", "_body", "_lower")
+
+    def __init__(self, name: str, params: tuple[A.Typed, ...], body: ir.Node | None = None, *,
+                 kind: str = "predicate", lower: Callable[[], ir.Node] | None = None):
+        self.name, self.params, self.kind = name, tuple(params), kind
+        self._body, self._lower = body, lower
+
+    @property
+    def body(self) -> ir.Node:
+        if self._body is None:
+            self._body = self._lower()
+        return self._body
+
+    @property
+    def key(self) -> str:
+        return f"{self.kind}/{self.name.lower()}"
+
+    def __repr__(self) -> str:
+        return f"Formula({self.key}, {len(self.params)} params)"
 
 
 @dataclass(eq=False)
@@ -56,20 +79,35 @@ class CompiledProgram:
     model: RobotModel | None
     options: Options = Options()
     #: IR of externally defined (Lua) predicates, by lower-case name, supplied by the Lua tracer
-    external: dict[str, ir.Node] = field(default_factory=dict)
+    #: (a mapping that traces on first access when built by :func:`compile_world`)
+    external: Mapping[str, ir.Node] = field(default_factory=dict)
+    #: the jitted functions: exported kernels of an artifact, else traced on first use
+    bank: KernelBank = field(default_factory=KernelBank)
     _kernels: dict = field(default_factory=dict, repr=False)
 
     @cached_property
-    def tables(self) -> KernelWorld:
+    def tables(self) -> KernelTables:
         """The kernels' entity, pose and frame tables."""
-        return build_world(self.scene, self.model, self.program.scope)
+        return build_tables(self.scene, self.model, self.program.scope)
+
+    @property
+    def dof(self) -> int:
+        return self.model.dof if self.model is not None else 0
 
     @cached_property
     def fk(self):
-        """Jitted forward kinematics of :attr:`model` (None without a robot)."""
+        """Forward kinematics of one configuration ``q (n,) -> Frames`` (None without a robot)."""
         if self.model is None:
             return None
-        return configured().jit(make_fk(self.model))
+        return self.bank.function("fk", lambda: make_fk(self.model), [((self.dof,), F64)])
+
+    @cached_property
+    def fk_batch(self):
+        """Forward kinematics of a batch ``Q (b, n) -> Frames`` (None without a robot)."""
+        if self.model is None:
+            return None
+        return self.bank.function("fk/batch", lambda: make_fk(self.model),
+                                  [(("b", self.dof), F64)])
 
     @cached_property
     def ground(self):
@@ -83,13 +121,15 @@ class CompiledProgram:
         lits = self.ground.goal.geometric
         if not lits:
             return None
-        parts = []
-        for lit in lits:
-            inner = self.predicate(lit.predicate)
-            body = substitute(inner.body, {i: ir.Entity(a) for i, a in enumerate(lit.args)})
-            parts.append(body if lit.positive else ir.op("not", (body,), ir.BOOL))
-        body = parts[0] if len(parts) == 1 else ir.op("and", parts, ir.BOOL)
-        return Formula("goal", (), body)
+        inner = [self.predicate(lit.predicate) for lit in lits]
+
+        def lower() -> ir.Node:
+            parts = []
+            for lit, f in zip(lits, inner):
+                body = substitute(f.body, {i: ir.Entity(a) for i, a in enumerate(lit.args)})
+                parts.append(body if lit.positive else ir.op("not", (body,), ir.BOOL))
+            return parts[0] if len(parts) == 1 else ir.op("and", parts, ir.BOOL)
+        return Formula("goal", (), kind="goal", lower=lower)
 
     # ---- formulas ----------------------------------------------------------------------------
     def predicate(self, name: str) -> Formula:
@@ -99,27 +139,36 @@ class CompiledProgram:
         if decl.kind is not A.Kind.GEOMETRIC:
             raise InputError(error("E586", f"`{name}` is a {decl.kind.value} predicate, not "
                                    "geometric", None))
-        if decl.semantics is not None:
-            body = Lowerer(self.program.scope).predicate(decl).body
-        elif isinstance(self.external.get(decl.name.key), _Untraceable):
-            # evaluated directly: a `lua` node calling the fallback on the host (docs/lua.md)
-            body = ir.op("lua", (ir.Const(decl.name.key, "lua"),
-                                 *(ir.Arg(i) for i in range(len(decl.params)))), ir.BOOL)
-        elif decl.name.key in self.external:
-            body = self.external[decl.name.key]
-        else:
+        key = decl.name.key
+        if decl.semantics is None and not self._has_external(key):
             raise InputError(error("E583", f"`{name}` has no semantics: it is implemented by a "
                                    "Lua function that was not loaded", decl.span,
                                    "give the Lua predicate file (the run configuration's "
                                    "`semantics`)"))
-        return Formula(decl.name.text, decl.params, body)
+
+        def lower() -> ir.Node:
+            if decl.semantics is not None:
+                return Lowerer(self.program.scope).predicate(decl).body
+            if isinstance(self.external.get(key), _Untraceable):
+                # evaluated directly: a `lua` node calling the fallback on the host (docs/lua.md)
+                return ir.op("lua", (ir.Const(key, "lua"),
+                                     *(ir.Arg(i) for i in range(len(decl.params)))), ir.BOOL)
+            return self.external[key]
+        return Formula(decl.name.text, decl.params, kind="predicate", lower=lower)
+
+    def _has_external(self, key: str) -> bool:
+        """Is the Lua predicate ``key`` defined? Known without tracing when the kernels came from
+        an artifact (a predicate it compiled had its Lua function)."""
+        if isinstance(self.external, LazyExternal) and not self.external.loaded:
+            return self.external.defines(key)
+        return key in self.external
 
     def action(self, name: str) -> Formula:
         """The geometric condition of an action schema's precondition."""
         act = self.program.scope.actions.get(name.lower())
         if act is None:
             raise InputError(error("E587", f"unknown action `{name}`", None))
-        literals = []
+        atoms = []
         for lit in _conjuncts(act.precondition):
             atom, positive = (lit.part, False) if isinstance(lit, A.Not) else (lit, True)
             if not isinstance(atom, A.Atom):
@@ -127,17 +176,19 @@ class CompiledProgram:
             decl = self.program.scope.predicates.get(atom.pred.key)
             if decl is None or decl.kind is not A.Kind.GEOMETRIC:
                 continue
-            literals.append(self._bind(atom, act.params, positive))
-        if not literals:
-            body: ir.Node = ir.Const(1.0, ir.BOOL)
-        else:
-            body = literals[0] if len(literals) == 1 else ir.op("and", literals, ir.BOOL)
-        return Formula(act.name.text, act.params, body)
+            atoms.append((atom, positive, self.predicate(atom.pred.text)))
 
-    def _bind(self, atom: A.Atom, params, positive: bool) -> ir.Node:
+        def lower() -> ir.Node:
+            literals = [self._bind(atom, act.params, positive, inner)
+                        for atom, positive, inner in atoms]
+            if not literals:
+                return ir.Const(1.0, ir.BOOL)
+            return literals[0] if len(literals) == 1 else ir.op("and", literals, ir.BOOL)
+        return Formula(act.name.text, act.params, kind="action", lower=lower)
+
+    def _bind(self, atom: A.Atom, params, positive: bool, inner: Formula) -> ir.Node:
         """A predicate's body with its Arg slots renamed to the action's parameter slots."""
         slots = {p.name.key: i for i, p in enumerate(params)}
-        inner = self.predicate(atom.pred.text)
         mapping = {}
         for i, term in enumerate(atom.args):
             if isinstance(term, A.Var):
@@ -156,17 +207,69 @@ class CompiledProgram:
                 if isinstance(u, _Untraceable)}
 
     def kernels(self, formula: Formula):
-        """(condition kernel, residual kernel) of a formula, jitted once per formula."""
-        key = (formula.name, formula.body)
+        """(condition kernel, residual kernel) of a formula. The condition kernel
+        ``(q (n,), obj_T (M, 4, 4), obj_parent (M,), args (k,)) -> (truth, distance)`` comes
+        from the bank (exported, or traced once); the residual kernel (for Gauss-Newton) is
+        traced on first call."""
+        key = formula.key
         if key not in self._kernels:
-            jax = configured()
-            frames = self.frames_for(formula)
-            self._kernels[key] = (
-                jax.jit(condition_kernel(formula.body, self.tables, self.options, frames,
-                                         self.lua_fallbacks)),
-                residual_kernel(formula.body, self.tables, self.options, frames,
-                                self.lua_fallbacks))
+            cond = self.bank.function(
+                f"cond/{key}", lambda: self._condition(formula),
+                [((self.dof,), F64), *self._mode_spec(), ((len(formula.params),), I64)],
+                _host_calls(formula))
+            self._kernels[key] = (cond, _Lazy(lambda: residual_kernel(
+                formula.body, self.tables, self.options, self.frames_for(formula),
+                self.lua_fallbacks)))
         return self._kernels[key]
+
+    def projector(self, formula: Formula):
+        """``project(Q0 (b, n), obj_T, obj_parent, args (k,), iterations ()) -> (Q, holds,
+        distance)`` of a formula (:func:`~tmpc.compiler.kernels.projector_fn`), from the bank."""
+        lower = np.asarray(self.model.lower)
+        upper = np.asarray(self.model.upper)
+        return self.bank.function(
+            f"proj/{formula.key}",
+            lambda: projector_fn(self._condition(formula), lower, upper),
+            [(("b", self.dof), F64), *self._mode_spec(), ((len(formula.params),), I64),
+             ((), I64)], _host_calls(formula))
+
+    def distance_grad(self, formula: Formula):
+        """``(q (n,), obj_T, obj_parent, args) -> (distance, d distance / d q)``, from the bank."""
+        def build():
+            jax = configured()
+            kernel = self._condition(formula)
+            return jax.value_and_grad(lambda q, T, par, args: kernel(q, T, par, args)[1])
+        return self.bank.function(f"grad/{formula.key}", build,
+                                  [((self.dof,), F64), *self._mode_spec(),
+                                   ((len(formula.params),), I64)], _host_calls(formula))
+
+    def register_kernels(self) -> None:
+        """Name in the bank every kernel a run, ``tmpc sample`` and ``tmpc eval`` can call, so
+        an artifact exports them all: per geometric predicate its condition, distance gradient
+        and projector; per action schema with a geometric precondition its condition and
+        projector; the goal's; forward kinematics of one state and of a batch."""
+        if self.model is None or self.program is None:
+            return
+        for decl in self.program.domain.predicates:
+            if decl.kind is A.Kind.GEOMETRIC and (decl.semantics is not None
+                                                  or self._has_external(decl.name.key)):
+                f = self.predicate(decl.name.text)
+                self.kernels(f), self.distance_grad(f), self.projector(f)
+        for act in self.program.domain.actions:
+            f = self.action(act.name.text)
+            self.kernels(f), self.projector(f)
+        if self.program.problem is not None and self.goal is not None:
+            self.kernels(self.goal), self.projector(self.goal)
+        self.fk, self.fk_batch
+
+    def _condition(self, formula: Formula):
+        """The traceable condition kernel (lowers the formula's IR)."""
+        return condition_kernel(formula.body, self.tables, self.options,
+                                self.frames_for(formula), self.lua_fallbacks)
+
+    def _mode_spec(self):
+        m = self.tables.n_objects
+        return [((m, 4, 4), F64), ((m,), I64)]
 
     def frames_for(self, formula: Formula) -> set[int]:
         """Robot frames a formula's kernel may read: frames among the objects its parameters can
@@ -234,10 +337,70 @@ _COMPILED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 def _compile(world, options: Options) -> CompiledProgram:
     cfg, program = world.config, world.program
-    external = {}
+    external: Mapping = {}
     if cfg is not None and cfg.semantics is not None and program is not None:
-        external = external_predicates(cfg.semantics, program)
-    return CompiledProgram(program, world.scene, robot_model(world.scene), options, external)
+        external = LazyExternal(cfg.semantics, program)
+    bank = KernelBank()
+    if world.artifact is not None:
+        bank = load_bank(*world.artifact)
+        if isinstance(external, LazyExternal):
+            external.known = frozenset(world.artifact[1].get("lua_predicates", ()))
+    return CompiledProgram(program, world.scene, robot_model(world.scene), options, external,
+                           bank)
+
+
+class LazyExternal(Mapping):
+    """The Lua predicates' IR, traced from the semantics file on first access; ``known``: the
+    names an artifact says the file defines (so a run from it needs no tracing to know)."""
+
+    def __init__(self, semantics, program: CheckedProgram):
+        self.semantics, self.program = semantics, program
+        self.known: frozenset | None = None
+        self._ir: dict | None = None
+
+    @property
+    def loaded(self) -> bool:
+        return self._ir is not None
+
+    def defines(self, key: str) -> bool:
+        return key in self.known if self.known is not None else key in self
+
+    def _load(self) -> dict:
+        if self._ir is None:
+            self._ir = external_predicates(self.semantics, self.program)
+        return self._ir
+
+    def __getitem__(self, key):
+        return self._load()[key]
+
+    def __iter__(self):
+        return iter(self._load())
+
+    def __len__(self):
+        return len(self._load())
+
+
+def _host_calls(formula: Formula):
+    """For the bank: why ``formula``'s kernels cannot be exported, if they call Lua on the host."""
+    def reason() -> str | None:
+        if has_lua_calls(formula.body):
+            return ("calls a Lua predicate on the host (tracing could not capture it): "
+                    "jax.export cannot serialize host callbacks, so it is traced from the "
+                    "artifact's sources when used")
+        return None
+    return reason
+
+
+class _Lazy:
+    """A function built on its first call."""
+
+    def __init__(self, build):
+        self._build, self._fn = build, None
+
+    def __call__(self, *args):
+        if self._fn is None:
+            self._fn = self._build()
+        return self._fn(*args)
 
 
 def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir.Node]:

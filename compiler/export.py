@@ -7,20 +7,28 @@ from __future__ import annotations
 import io
 import json
 import re
+import warnings
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tmpc.compiler.artifact import FORMAT, MAGIC_MEMBER, digest, package_version
-from tmpc.compiler.cache import cache_root
+from tmpc.compiler.artifact import (
+    FORMAT,
+    MAGIC_MEMBER,
+    digest,
+    is_artifact,
+    open_world,
+    package_version,
+    read_manifest,
+)
+from tmpc.compiler.cache import cache_root, run_artifact, source_key
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import GroundingError, ground
-from tmpc.compiler.ir import show
-from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.kernels import has_lua_calls
+from tmpc.compiler.kernels import Options
 from tmpc.compiler.smt import smtlib_templates
-from tmpc.lang import ast as A
+from tmpc.lang.diagnostics import InputError
 from tmpc.lang.fileio import atomic_write_bytes
+from tmpc.lang.inputs import load_world
 from tmpc.lang.world import find_file, find_srdf, load_urdf
 
 
@@ -112,42 +120,30 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
             "robot": robot, "objects": objects, "allowed_collisions": pairs}
 
 
-def _export_kernel(compiled, formula) -> bytes:
-    from jax import export  # imported when exporting: opening an artifact needs no JAX
-    jax = configured()
-    jnp = jax.numpy
-    kernel, _ = compiled.kernels(formula)
-    world = compiled.tables
-    n = world.model.dof if world.model is not None else 0
-    M, k = world.n_objects, len(formula.params)
-    b = export.symbolic_shape("b")[0]
-    batched = jax.jit(jax.vmap(kernel, in_axes=(0, None, None, 0)))
-    exp = export.export(batched)(
-        jax.ShapeDtypeStruct((b, n), jnp.float64), jax.ShapeDtypeStruct((M, 4, 4), jnp.float64),
-        jax.ShapeDtypeStruct((M,), jnp.int64), jax.ShapeDtypeStruct((b, k), jnp.int64))
-    return bytes(exp.serialize())
+def _cached(sources: str, options) -> "callable":
+    """Exported kernels are cached by (sources, key, spec, tmpc and JAX versions, options):
+    recompiling an unchanged problem reuses them (exporting traces and lowers every kernel,
+    which dominates compile time)."""
+    def cached(key: str, spec: tuple, make) -> bytes:
+        name = digest(json.dumps([sources, key, repr(spec), package_version("tmpc"),
+                                  package_version("jax"), repr(options)]).encode())
+        path = cache_root() / "exports" / f"{name}.jaxexport"
+        if path.is_file():
+            return path.read_bytes()
+        data = make()
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_bytes(path, data)
+        except OSError:
+            pass          # a read-only cache: fine, just slower next time
+        return data
+    return cached
 
 
-def _cached_export(compiled, formula, kind: str, sources: str) -> bytes:
-    """Exported kernels are cached by (sources, formula, tmpc and JAX versions): recompiling an
-    unchanged problem reuses them (exporting traces and lowers every kernel, which dominates)."""
-    key = digest(json.dumps([sources, kind, formula.name, show(formula.body),
-                             package_version("tmpc"), package_version("jax"),
-                             repr(compiled.options)]).encode())
-    path = cache_root() / "exports" / f"{key}.jaxexport"
-    if path.is_file():
-        return path.read_bytes()
-    data = _export_kernel(compiled, formula)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, data)
-    except OSError:
-        pass          # a read-only cache: fine, just slower next time
-    return data
-
-
-def build_artifact(world, out: str | Path) -> dict:
-    """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``."""
+def build_artifact(world, out: str | Path, register=None) -> dict:
+    """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``: every
+    kernel :meth:`CompiledProgram.register_kernels` names, plus those ``register(world,
+    compiled)`` adds (the runtime's), exported. Returns the manifest."""
     members = _Members()
     cfg, prog = world.config, world.program
     src = {"domain": members.add("src/domain.pddl", Path(cfg.domain).read_bytes()),
@@ -162,26 +158,15 @@ def build_artifact(world, out: str | Path) -> dict:
         run.append('semantics = "predicates.lua"')
     members.add("src/run.toml", ("\n".join(run) + "\n").encode())
     compiled = compile_world(world)
-    kernels = []
-    for decl in prog.domain.predicates:
-        if decl.kind is A.Kind.GEOMETRIC and (decl.semantics is not None or
-                                              decl.name.key in compiled.external):
-            kernels.append(("predicate", compiled.predicate(decl.name.text)))
-    for act in prog.domain.actions:
-        kernels.append(("action", compiled.action(act.name.text)))
-    entries = []
+    compiled.register_kernels()
+    if register is not None:
+        register(world, compiled)          # what the runtime adds (the collision checker's)
     sources = digest(json.dumps({k: digest(v) for k, v in sorted(members.files.items())}).encode())
-    for kind, formula in kernels:
-        entry = {"kind": kind, "name": formula.name,
-                 "params": [p.name.text for p in formula.params]}
-        if has_lua_calls(formula.body):
-            entry.update(member=None, skipped="calls a Lua predicate on the host (tracing could "
-                         "not capture it); jax.export cannot serialize host callbacks, so the "
-                         "kernel is rebuilt from src/ when loaded")
-        else:
-            entry["member"] = members.add(f"kernels/{kind}-{formula.name.lower()}.jaxexport",
-                                          _cached_export(compiled, formula, kind, sources))
-        entries.append(entry)
+    exported, skipped = compiled.bank.export(_cached(sources, compiled.options))
+    entries = {key: members.add(f"kernels/{_member_name(key)}.jaxexport", data)
+               for key, data in sorted(exported.items())}
+    entries.update({key: None for key in skipped})
+    lua = sorted(k for k in compiled.external) if cfg.semantics is not None else []
     smt = _smt_section(members, prog)
     model = compiled.model
     manifest = {
@@ -192,7 +177,8 @@ def build_artifact(world, out: str | Path) -> dict:
                    "lower": [float(v) for v in model.lower] if model else [],
                    "upper": [float(v) for v in model.upper] if model else [],
                    "entities": list(compiled.tables.names)},
-        "kernels": entries,
+        "bank": {"kernels": entries, "skipped": skipped},
+        "lua_predicates": lua,
         "smt": smt,
         "members": {name: digest(data) for name, data in sorted(members.files.items())},
     }
@@ -205,6 +191,11 @@ def build_artifact(world, out: str | Path) -> dict:
     return manifest
 
 
+def _member_name(key: str) -> str:
+    """A kernel key as a file name (``proj/action/pickup`` -> ``proj-action-pickup``)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", key)
+
+
 def _smt_section(members: _Members, prog) -> dict:
     """The task planner's step encoding as SMT-LIB2 templates (compiler/smt/encode.py, geometric mode:
     blocker variables included), one member per template; a problem too large to ground says why
@@ -215,3 +206,28 @@ def _smt_section(members: _Members, prog) -> dict:
         return {"templates": None, "skipped": exc.diagnostics[0].message}
     return {"templates": {name: members.add(f"smt/{name}.smt2", text.encode("utf-8"))
                           for name, text in sorted(templates.items())}}
+
+
+def open_for_run(path, register=None):
+    """The world ``tmpc run`` plans in, and how its kernels were had: an artifact as it is
+    (``"artifact"``); a run configuration through the artifact cache (:mod:`tmpc.compiler.cache`):
+    ``"cache"`` when an artifact of exactly these sources is there, else ``"compiled"`` after
+    compiling one into the cache. A damaged cache entry is compiled again, with a warning."""
+    if is_artifact(path):
+        return open_world(path), "artifact"
+    world = load_world(path)
+    if world.program is None or world.program.problem is None:
+        return world, "sources"        # nothing to compile: the planner's checks say why
+    art = run_artifact(source_key(world, Options()))
+    if art.is_file():
+        try:
+            manifest, _ = read_manifest(art)
+            world.artifact = (art, manifest)
+            return world, "cache"
+        except InputError as exc:
+            warnings.warn(f"the cached artifact {art} is damaged ({exc.diagnostics[0].message}); "
+                          "compiling it again", stacklevel=2)
+            art.unlink(missing_ok=True)
+    art.parent.mkdir(parents=True, exist_ok=True)
+    build_artifact(world, art, register)
+    return world, "compiled"

@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.kernels import make_projector, state_inputs, uniform_starts
+from tmpc.compiler.kernels import state_inputs, uniform_starts
 from tmpc.compiler.state import initial_state, state_from_json
 from tmpc.lang.diagnostics import InputError, error
 
@@ -44,8 +43,7 @@ def predicate_at(compiled, state, request: list[str]) -> dict:
     kernel, _ = compiled.kernels(formula)
     q, obj_T, parent = state_inputs(compiled.tables, state)
     truth, dist = kernel(q, obj_T, parent, ids)
-    jax = configured()
-    grad = jax.grad(lambda q: kernel(q, obj_T, parent, ids)[1])(q) if len(q) else []
+    grad = compiled.distance_grad(formula)(q, obj_T, parent, ids)[1] if len(q) else []
     names = compiled.model.q_names if compiled.model is not None else ()
     return {"value": bool(truth), "distance": float(dist),
             "gradient": {n: float(g) for n, g in zip(names, grad)}}
@@ -67,14 +65,14 @@ def sample_states(compiled, formula, ids, state, n: int, rng: np.random.Generato
     ``state``'s mode, projected from uniform starts in batches; with a collision ``checker``,
     only collision-free ones."""
     model = compiled.model
-    kernel, _ = compiled.kernels(formula)
     _, obj_T, parent = state_inputs(compiled.tables, state)
-    project = make_projector(kernel, model.lower, model.upper, iterations=iterations)
+    project = compiled.projector(formula)
+    steps = np.int64(iterations)
     out = Samples([])
     batch = max(64, min(1024, 8 * n))
     while len(out.found) < n and out.tried < max_starts:
         Q0 = uniform_starts(rng, model.lower, model.upper, batch)
-        Q, holds, _ = (np.asarray(x) for x in project(Q0, obj_T, parent, ids))
+        Q, holds, _ = (np.asarray(x) for x in project(Q0, obj_T, parent, ids, steps))
         out.tried += batch
         out.unconverged += int((~holds).sum())
         Q = Q[holds]

@@ -3,7 +3,7 @@ compiled kernels and the collision checker, with the operations every TMP planne
 
 * **Modes** (thesis ch. 2 §2.3): a symbolic state (an ``int`` bitset of the ground problem) plus
   a *pose set*: where the free objects are and which robot frame holds which object (with the
-  grasp transform). :meth:`TmpProblem.successor_mode` applies an action at a configuration:
+  grasp transform). :meth:`PlanningProblem.successor_mode` applies an action at a configuration:
   discrete effects by the ground problem, kinematic ``link``/``unlink`` effects by forward
   kinematics at that configuration (an object keeps its world pose when grasped or released).
 * **Projection** onto an action's geometric precondition (or the goal's), in a mode, from a batch
@@ -26,7 +26,7 @@ import numpy as np
 
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import geo_atoms
-from tmpc.compiler.kernels import make_projector, state_inputs
+from tmpc.compiler.kernels import state_inputs
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
@@ -65,7 +65,7 @@ class Timers:
         return {k: round(v, 4) for k, v in vars(self).items()}
 
 
-class TmpProblem:
+class PlanningProblem:
     """Everything a TMP planner needs about one problem (see the module docstring)."""
 
     def __init__(self, world, tolerance: float | None = None, iterations: int = 15):
@@ -93,6 +93,8 @@ class TmpProblem:
         self.wraps = np.asarray(self.model.wraps, bool)
         self._projectors: dict[str, tuple] = {}
         self._goal = None
+        #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
+        self.setup: dict = {}
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
@@ -186,7 +188,7 @@ class TmpProblem:
             t = time.perf_counter()
             formula = self.compiled.action(schema)
             kernel, _ = self.compiled.kernels(formula)
-            proj = make_projector(kernel, self.lower, self.upper, iterations=self.iterations)
+            proj = self._iterated(self.compiled.projector(formula))
             self._projectors[schema] = (formula, proj, kernel)
             self.timers.compile += time.perf_counter() - t
         return self._projectors[schema]
@@ -199,9 +201,13 @@ class TmpProblem:
                 self._goal = (None,)
             else:
                 kernel, _ = self.compiled.kernels(formula)
-                self._goal = (formula, make_projector(kernel, self.lower, self.upper,
-                                                      iterations=self.iterations), kernel)
+                self._goal = (formula, self._iterated(self.compiled.projector(formula)), kernel)
         return None if self._goal[0] is None else self._goal
+
+    def _iterated(self, project):
+        """``project`` with the planner's iteration count bound."""
+        n = np.int64(self.iterations)
+        return lambda Q0, T, par, args: project(Q0, T, par, args, n)
 
     def has_geometry(self, action) -> bool:
         """Does ``action``'s precondition have geometric literals the projector must satisfy?"""

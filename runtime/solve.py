@@ -7,23 +7,48 @@ import time
 
 import numpy as np
 
-from tmpc.compiler.artifact import open_world
+from tmpc.compiler.export import open_for_run
 from tmpc.lang.inputs import World
 from tmpc.runtime.planners import make_planner
-from tmpc.runtime.problem import TmpProblem
+from tmpc.runtime.problem import PlanningProblem
+
+
+def open_input(path) -> tuple[World, dict]:
+    """The world to plan in (:func:`~tmpc.compiler.export.open_for_run`: an artifact, or a
+    configuration through the artifact cache) and the seconds spent: ``load``, and ``compile``
+    when the cache had no artifact of these sources."""
+    t = time.perf_counter()
+    world, how = open_for_run(path)
+    spent = time.perf_counter() - t
+    return world, {"kernels": how, ("compile" if how == "compiled" else "load"): spent}
 
 
 def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit: float = 120.0,
                  overrides: dict | None = None, progress=None):
     """Load (``input_path``: a path or a loaded :class:`World`), check and plan; returns
-    (problem, result, setup seconds)."""
+    (problem, result, setup seconds). ``problem.setup`` has the split: ``problem`` (grounding,
+    the collision world, the pre-checks), ``deserialize`` (exported kernels read) and
+    ``first_call`` (their first calls: XLA compiles or loads them from its cache), plus
+    ``load``/``compile`` and ``kernels`` from :func:`open_input` when given a path."""
     t0 = time.perf_counter()
-    world = input_path if isinstance(input_path, World) else open_world(input_path)
-    problem = TmpProblem(world)
+    split: dict = {}
+    if isinstance(input_path, World):
+        world = input_path
+    else:
+        world, split = open_input(input_path)
+    t = time.perf_counter()
+    problem = PlanningProblem(world)
     problem.check_goal_reachable()
     problem.check_start()
     algo = make_planner(planner, problem, seed, overrides)
-    problem.warm_up(np.random.default_rng(seed))
+    split["problem"] = time.perf_counter() - t
+    bank = problem.compiled.bank.stats
+    before = bank.seconds_deserialize
+    warm = problem.warm_up(np.random.default_rng(seed))
+    split["deserialize"] = bank.seconds_deserialize - before
+    split["first_call"] = warm - split["deserialize"]
+    split["traced"] = list(bank.traced_keys)
+    problem.setup = split
     setup = time.perf_counter() - t0
     result = algo.solve(time_limit, progress)
     return problem, result, setup

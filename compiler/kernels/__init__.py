@@ -10,6 +10,7 @@ from tmpc.compiler.kernels.emit import lua_host_call as lua_host_call
 from tmpc.compiler.kernels.emit import residual_kernel as residual_kernel
 from tmpc.compiler.kernels.emit import state_inputs as state_inputs
 from tmpc.compiler.kernels.project import make_projector as make_projector
+from tmpc.compiler.kernels.project import projector_fn as projector_fn
 from tmpc.compiler.kernels.project import uniform_starts as uniform_starts
-from tmpc.compiler.kernels.tables import KernelWorld as KernelWorld
-from tmpc.compiler.kernels.tables import build_world as build_world
+from tmpc.compiler.kernels.tables import KernelTables as KernelTables
+from tmpc.compiler.kernels.tables import build_tables as build_tables

@@ -24,7 +24,7 @@ import numpy as np
 
 from tmpc.compiler import ir
 from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.kernels.tables import KernelWorld
+from tmpc.compiler.kernels.tables import KernelTables
 from tmpc.compiler.robot import Frames, make_fk
 from tmpc.compiler.rotations import quat_matrix
 
@@ -51,7 +51,7 @@ def _safe_sqrt(jnp, x):
 class _Emitter:
     """Evaluates IR for one state inside a traced JAX function."""
 
-    def __init__(self, world: KernelWorld, opts: Options, frames, q, obj_T, obj_parent, args,
+    def __init__(self, world: KernelTables, opts: Options, frames, q, obj_T, obj_parent, args,
                  lua=None):
         self.jax = configured()
         self.jnp = self.jax.numpy
@@ -387,7 +387,7 @@ def _lua_distance(em, n, env):
     return call(poses, jnp.stack([jnp.asarray(e, dtype=jnp.int64) for e in ids]))
 
 
-def lua_host_call(fallback, world: KernelWorld):
+def lua_host_call(fallback, world: KernelTables):
     """A JAX function ``call(poses (k, 7), ids (k,)) -> distance`` evaluating a
     :class:`~tmpc.compiler.lua_trace.LuaFallback` on the host.
 
@@ -458,7 +458,7 @@ def has_lua_calls(node: ir.Node) -> bool:
     return any(isinstance(n, ir.Op) and n.op == "lua" for n in ir.walk(node))
 
 
-def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
+def condition_kernel(node: ir.Node, world: KernelTables, opts: Options = Options(),
                      frames=None, lua=None):
     """``kernel(q, obj_T, obj_parent, args) -> (truth, distance)`` (not jitted).
 
@@ -480,7 +480,7 @@ def condition_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(
     return kernel
 
 
-def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options(),
+def residual_kernel(node: ir.Node, world: KernelTables, opts: Options = Options(),
                     frames=None, lua=None):
     """``kernel(q, obj_T, obj_parent, args) -> r`` with ``|r| = D`` (l2), for Gauss-Newton."""
     fk = make_fk(world.model, frames) if world.model is not None else None
@@ -494,7 +494,7 @@ def residual_kernel(node: ir.Node, world: KernelWorld, opts: Options = Options()
     return kernel
 
 
-def value_kernel(node: ir.Node, world: KernelWorld):
+def value_kernel(node: ir.Node, world: KernelTables):
     """``kernel(q, obj_T, obj_parent, args) -> value`` of a non-condition expression."""
     fk = make_fk(world.model) if world.model is not None else None
 
@@ -506,14 +506,14 @@ def value_kernel(node: ir.Node, world: KernelWorld):
     return kernel
 
 
-def _static_frames(world: KernelWorld):
+def _static_frames(world: KernelTables):
     """Frames are only gathered from when a formula reads no robot pose; zeros are enough."""
     jnp = configured().numpy
     F = world.n_frames
     return Frames(jnp.zeros((F, 3, 3)), jnp.zeros((F, 3)))
 
 
-def _check_buildable(node: ir.Node, world: KernelWorld) -> None:
+def _check_buildable(node: ir.Node, world: KernelTables) -> None:
     for name in ir.entities_used(node):
         if world.entity(name) is None:
             raise KernelError(f"`{name}` is neither a robot frame nor a scene object")
@@ -523,7 +523,7 @@ def _check_buildable(node: ir.Node, world: KernelWorld) -> None:
             raise KernelError(f"the robot has no joint `{name}`")
 
 
-def state_inputs(world: KernelWorld, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def state_inputs(world: KernelTables, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q, obj_T, obj_parent) kernel inputs from a :class:`~tmpc.compiler.state.WorldState`."""
     M = world.n_objects
     obj_T = np.tile(np.eye(4), (M, 1, 1))

@@ -32,6 +32,16 @@ def make_projector(kernel, lower, upper, iterations: int = 40, step: float = 1.0
     """A jitted ``project(Q0, obj_T, obj_parent, args) -> (Q, holds, distance)`` for ``kernel``
     (``kernel(q, obj_T, obj_parent, args) -> (truth, distance)``)."""
     jax = configured()
+    batched = projector_fn(kernel, lower, upper, step, eps)
+    n = np.int64(iterations)
+    return jax.jit(lambda Q0, T, par, args: batched(Q0, T, par, args, n))
+
+
+def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12):
+    """The traceable ``project(Q0 (B, n), obj_T, obj_parent, args, iterations ()) -> (Q, holds,
+    distance)``; the iteration count is an argument, so one compiled projector serves every
+    caller (the planner's 15 iterations, ``tmpc sample --iterations``)."""
+    jax = configured()
     jnp = jax.numpy
     lo, hi = jnp.asarray(lower), jnp.asarray(upper)
 
@@ -40,7 +50,7 @@ def make_projector(kernel, lower, upper, iterations: int = 40, step: float = 1.0
 
     value_and_grad = jax.value_and_grad(dist)
 
-    def one(q0, T, par, args):
+    def one(q0, T, par, args, iterations):
         def body(_, q):
             d, g = value_and_grad(q, T, par, args)
             # Active set: a coordinate at a bound whose step would leave the box is frozen, so
@@ -56,8 +66,7 @@ def make_projector(kernel, lower, upper, iterations: int = 40, step: float = 1.0
         truth, d = kernel(q, T, par, args)
         return q, truth, d
 
-    batched = jax.vmap(one, in_axes=(0, None, None, None))
-    return jax.jit(batched)
+    return jax.vmap(one, in_axes=(0, None, None, None, None))
 
 
 def make_gn_projector(kernel, residuals, lower, upper, iterations: int = 10,

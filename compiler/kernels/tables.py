@@ -17,7 +17,7 @@ from tmpc.lang.world import Scene
 
 
 @dataclass(frozen=True, eq=False)
-class KernelWorld:
+class KernelTables:
     model: RobotModel | None
     scene: Scene
     #: entity names in id order
@@ -57,7 +57,7 @@ def _extent(shape) -> tuple[float, float, float]:
     return (0.0, 0.0, 0.0)
 
 
-def build_world(scene: Scene, model: RobotModel | None, scope=None) -> KernelWorld:
+def build_tables(scene: Scene, model: RobotModel | None, scope=None) -> KernelTables:
     """Tables for ``scene`` and ``model``; ``scope`` (a checked program's) gives type domains."""
     frames = tuple(model.frames) if model is not None else ()
     names = frames + tuple(o.name for o in scene.objects)
@@ -81,4 +81,4 @@ def build_world(scene: Scene, model: RobotModel | None, scope=None) -> KernelWor
             members = [ids[info.name.key] for info in scope.objects.values()
                        if info.name.key in ids and scope.compatible(info.types, (type_key,))]
             domains[type_key] = tuple(sorted(set(members)))
-    return KernelWorld(model, scene, names, ids, len(frames), extents, support, domains)
+    return KernelTables(model, scene, names, ids, len(frames), extents, support, domains)

@@ -43,11 +43,11 @@ from tmpc.lang.diagnostics import InputError, TmpcError, error, render, sort_key
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.runtime.planners import make_planner
 from tmpc.runtime.plans import action_text, file_digest, plan_document, write_json_atomic
-from tmpc.runtime.problem import TmpProblem
+from tmpc.runtime.problem import PlanningProblem
 from tmpc.runtime.validate import validate_plan
 
 FORMAT = "tmpc-bench/1"
-#: the timers a run's time split reports (TmpProblem.timers); the rest of a run is "other"
+#: the timers a run's time split reports (PlanningProblem.timers); the rest of a run is "other"
 SPLIT = ("sampling", "projection", "collision", "heuristic", "compile")
 #: OMPL's planner status enum (ompl::base::PlannerStatus, in its order): a log's ``status ENUM``
 #: is an index into it, so our runs mix with OMPL's own in one database
@@ -326,7 +326,7 @@ def build_problem(path, rec: dict):
     t = time.perf_counter()
     world = open_world(path)
     rec["load_seconds"] = round(time.perf_counter() - t, 4)
-    problem = TmpProblem(world)
+    problem = PlanningProblem(world)
     problem.check_goal_reachable()
     problem.check_start()
     rec["warm_up_seconds"] = round(problem.warm_up(np.random.default_rng(0)), 4)

@@ -26,9 +26,10 @@ def run_compile(args) -> int:
         raise InputError(error("E585", f"{args.input}: a scene alone cannot be compiled; give a "
                                "run configuration that names the domain and problem", None))
     manifest = build_artifact(world, args.output)
-    skipped = [k["name"] for k in manifest["kernels"] if k.get("member") is None]
-    sys.stderr.write(f"wrote {args.output}: {len(manifest['kernels'])} kernels"
-                     + (f" ({len(skipped)} rebuilt from the sources on load: "
+    kernels = manifest["bank"]["kernels"]
+    skipped = sorted(k for k, member in kernels.items() if member is None)
+    sys.stderr.write(f"wrote {args.output}: {len(kernels)} kernels"
+                     + (f" ({len(skipped)} traced from the sources when used: "
                         f"{', '.join(skipped)} call untraceable Lua)" if skipped else "")
                      + f", {len(manifest['members'])} members\n")
     return EXIT_OK

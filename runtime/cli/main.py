@@ -30,6 +30,11 @@ def cmd_compile(args) -> int:
     return run_compile(args)
 
 
+def cmd_cache(args) -> int:
+    from tmpc.runtime.cli.cache import run_cache
+    return run_cache(args)
+
+
 def cmd_fmt(args) -> int:
     from tmpc.runtime.cli.fmt import run_fmt
     return run_fmt(args.files, check=args.check, fmt=args.format, print_diags=print_diagnostics)
@@ -84,6 +89,7 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
     "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
+    "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
 
 
@@ -181,6 +187,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--heuristic-bias", type=float, default=None,
                        help="probability of a heuristic sample (planet coin_bias)")
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+        p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
+                       "imports, load, compile, deserialize, first-call compile, planning, output")
     elif name == "validate":
         p.add_argument("input", metavar="INPUT", help="the run configuration or artifact the "
                        "plan was made for")
@@ -198,6 +206,10 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--png", metavar="OUT.png", help="snapshot")
         p.add_argument("--state", type=int, default=None, metavar="I",
                        help="which state the PNG shows (default: the last)")
+    elif name == "cache":
+        p.add_argument("action", choices=("info", "clear"))
+        p.add_argument("parts", nargs="*", metavar="PART",
+                       help="runs, artifacts, exports, jax (default: all)")
     elif name == "bench":
         p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
                        "artifacts (one problem each)")

@@ -12,17 +12,19 @@ from __future__ import annotations
 import sys
 import time
 
-from tmpc.compiler.artifact import open_world
 from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
-from tmpc.runtime.solve import plan_problem
+from tmpc.runtime.solve import open_input, plan_problem
 from tmpc.runtime.viewer import write_html, write_png
 
 DEFAULT_TIME_LIMIT = 120.0
 
 
 def run_run(args) -> int:
-    world = open_world(args.input)
+    t = time.perf_counter()
+    import fcl  # noqa: F401,E401 - timed apart: `-v` reports imports on their own
+    imports = time.perf_counter() - t
+    world, opened = open_input(args.input)
     # the command line wins; else the configuration's time limit and output (planet's TOML
     # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
     config = world.config
@@ -36,6 +38,9 @@ def run_run(args) -> int:
     progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
     problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit,
                                           planner_overrides(args), progress)
+    split = {"imports": imports, **opened, **problem.setup}
+    setup += opened.get("load", 0.0) + opened.get("compile", 0.0)
+    t = time.perf_counter()
     if progress is not None:
         progress.done()
     doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
@@ -48,13 +53,32 @@ def run_run(args) -> int:
             write_html(problem.world, doc, args.html)
         if args.png:
             write_png(problem.world, doc, args.png)
+    split["output"] = time.perf_counter() - t
     _report(doc, result, setup)
+    if args.verbose:
+        _report_setup(split, result)
     return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
 
 
 def planner_overrides(args) -> dict:
     """The planner options given on the command line (None where not given)."""
     return {"heuristic_bias": getattr(args, "heuristic_bias", None)}
+
+
+def _report_setup(split: dict, result) -> None:
+    """`-v`: where the time went, in order."""
+    kernels = {"artifact": "from the artifact", "cache": "from the artifact cache (no compile)",
+               "compiled": "compiled into the artifact cache", "sources": "traced from sources"}
+    w = sys.stderr.write
+    w(f"kernels: {kernels.get(split.get('kernels'), split.get('kernels'))}; traced this run: "
+      f"{len(split.get('traced', ()))}" + (f" ({', '.join(split['traced'])})"
+                                            if split.get("traced") else "") + "\n")
+    parts = [("imports", "imports"), ("load", "load"), ("compile", "compile"),
+             ("problem", "problem"), ("deserialize", "deserialize"),
+             ("first_call", "first-call compile")]
+    line = ", ".join(f"{label} {split[k]:.2f} s" for k, label in parts if k in split)
+    w(f"setup: {line}; planning {result.stats['seconds']:.2f} s; output "
+      f"{split.get('output', 0.0):.2f} s\n")
 
 
 def _report(doc, result, setup: float) -> None:

@@ -11,7 +11,7 @@ Soundness: if two geometries touch, some point lies in both, hence in a ball (or
 so a geometry pair whose bounding balls, or whose covers, are disjoint cannot collide, and fcl is
 asked only about the remaining candidate pairs. A state is declared free only when every
 candidate pair is confirmed free by fcl: the pass never turns a colliding state into a free one
-(radii carry a relative and absolute slack of 1e-9 against rounding). tests/test_collision.py
+(radii carry a relative and absolute slack of 1e-9 against rounding). tests/runtime/test_collision.py
 checks this against exact fcl on thousands of random states.
 
 The pass runs in two stages: JAX computes forward kinematics and the bounding-ball tests of every
@@ -571,7 +571,7 @@ def _path_joints(model, link: str) -> list:
 
 
 def _frame_world(world, q, link: str) -> np.ndarray:
-    return homogeneous(world.fk(q))[world.model.frame(link)]
+    return homogeneous(world.fk(np.asarray(q, float)[None]))[0, world.model.frame(link)]
 
 
 def _geom_world(world, frames, g: int) -> np.ndarray:

@@ -661,5 +661,5 @@ def collision_world(world, compiled, tolerance: float = 0.0) -> CollisionWorld:
     :class:`~tmpc.compiler.compile.CompiledProgram`, for the forward kinematics). Every link mesh
     must load here (E562 names a missing one); kinematics alone does not need them."""
     model = robot_model(world.scene, strict_meshes=True) if compiled.model is not None else None
-    return CollisionWorld(world.scene, model, fk=compiled.fk, tolerance=tolerance,
+    return CollisionWorld(world.scene, model, fk=compiled.fk_batch, tolerance=tolerance,
                           allowed=world.allowed_pairs())

@@ -36,7 +36,7 @@ import numpy as np
 
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.planners.heuristic import FFHeuristic, ScaledPriorities
-from tmpc.runtime.problem import PROJECTION_BATCH, Mode, TmpProblem
+from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ class _Target:
 
 
 class UnifiedPlanner:
-    def __init__(self, problem: TmpProblem, seed: int = 0,
+    def __init__(self, problem: PlanningProblem, seed: int = 0,
                  options: UnifiedOptions = UnifiedOptions()):
         self.p = problem
         self.opt = options
@@ -98,7 +98,7 @@ class UnifiedPlanner:
                        "connect_failures": 0}
 
     @classmethod
-    def from_options(cls, problem: TmpProblem, seed: int = 0,
+    def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "UnifiedPlanner":
         """The registry's factory: options from the run configuration's parameters (planet's
         ``coin_bias``, ``success_scale``, ``goal_weight``), ``overrides`` (the command line's

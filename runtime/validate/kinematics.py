@@ -2,7 +2,7 @@
 
 The URDF is read here with yourdfpy directly (not through :mod:`tmpc.lang.world.robot`'s tree), and
 link poses come from pinocchio (``buildModelFromUrdf`` + ``framesForwardKinematics``), the same
-independent implementation ``tests/test_fk.py`` checks the JAX kinematics against. Without
+independent implementation ``tests/compiler/test_fk.py`` checks the JAX kinematics against. Without
 pinocchio, yourdfpy's own scene-graph kinematics (``update_cfg`` / ``get_transform``) stand in;
 both are independent of the planner's generated JAX code.
 

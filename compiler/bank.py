@@ -1,0 +1,176 @@
+"""Jitted functions by name: the artifact's exported kernels when it has them, else traced.
+
+Every JAX function a run calls (condition kernels, projectors, forward kinematics, the collision
+checker's frame functions) is obtained as ``bank.function(key, build, spec)``:
+
+* ``key`` names the function stably across processes (``"proj/action/pickup"``, ``"fk/batch"``);
+* ``build()`` returns the Python function to trace; it is called only when the bank has no
+  exported kernel for ``key`` (so a run from an artifact lowers no IR and traces nothing);
+* ``spec`` gives the argument shapes and dtypes, ``"b"`` marking the batch dimension, which is
+  exported symbolically: one exported kernel serves every batch size (XLA compiles each concrete
+  size on its first call, and the persistent compilation cache keeps that across processes).
+
+``tmpc compile`` (and the run cache) registers every function a run needs, then
+:meth:`KernelBank.export` serializes them with ``jax.export``; :meth:`KernelBank.load` reads them
+back. Functions that call the host (untraceable Lua predicates) cannot be serialized: they are
+skipped with a reason, and traced from the embedded sources when used. ``stats`` counts what was
+deserialized and what was traced, so a test can assert that a run from the artifact cache traced
+nothing.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from tmpc.compiler.jaxcfg import configured
+from tmpc.compiler.robot import Frames
+
+#: one argument: (shape with "b" for the batch dimension, dtype name)
+ArgSpec = tuple[tuple, str]
+F64, I64 = "float64", "int64"
+
+
+@dataclass
+class BankStats:
+    """What the bank did: kernels deserialized, traced (built from IR), and the keys traced."""
+
+    deserialized: int = 0
+    traced: int = 0
+    traced_keys: list[str] = field(default_factory=list)
+    seconds_deserialize: float = 0.0
+
+
+class KernelBank:
+    """Functions by key (see the module docstring). ``exported``: key -> serialized kernel
+    (``jax.export`` bytes) from an artifact; empty for a program compiled from sources."""
+
+    def __init__(self, exported: dict[str, bytes] | None = None, source: str | None = None):
+        self._exported = dict(exported or {})
+        self._source = source            # where the exported kernels came from (for warnings)
+        self._functions: dict[str, BankFunction] = {}
+        self.stats = BankStats()
+
+    def function(self, key: str, build: Callable[[], Callable], spec: Sequence[ArgSpec],
+                 unexportable: Callable[[], str | None] | None = None) -> "BankFunction":
+        """The jitted function ``key`` (built once per bank). ``unexportable()``, asked only
+        when exporting, gives the reason a function cannot be serialized (None: it can)."""
+        fn = self._functions.get(key)
+        if fn is None:
+            fn = self._functions[key] = BankFunction(self, key, build, tuple(spec))
+            fn.unexportable = unexportable
+        return fn
+
+    @property
+    def keys(self) -> list[str]:
+        """Keys of every function registered so far."""
+        return sorted(self._functions)
+
+    def has_exported(self, key: str) -> bool:
+        return key in self._exported
+
+    def _resolve(self, fn: "BankFunction") -> Callable:
+        jax = configured()
+        data = self._exported.get(fn.key)
+        if data is not None:
+            from jax import export  # the export machinery, only when kernels are loaded
+            t = time.perf_counter()
+            exp = export.deserialize(bytearray(data))
+            self.stats.deserialized += 1
+            self.stats.seconds_deserialize += time.perf_counter() - t
+            return jax.jit(exp.call)
+        if self._source is not None and fn.key not in self._skipped_ok:
+            warnings.warn(f"kernel {fn.key} is not in {self._source}: traced from its sources",
+                          stacklevel=3)
+        self.stats.traced += 1
+        self.stats.traced_keys.append(fn.key)
+        return jax.jit(fn.python())
+
+    #: keys the artifact said it could not serialize (host callbacks): traced without a warning
+    _skipped_ok: frozenset = frozenset()
+
+    # ---- serialization -----------------------------------------------------------------------
+    def export(self, cached: Callable[[str, tuple, Callable[[], bytes]], bytes] | None = None
+               ) -> tuple[dict[str, bytes], dict[str, str]]:
+        """(key -> serialized kernel, key -> why it was skipped) for every registered function.
+        ``cached(key, spec, make)`` may return stored bytes instead of calling ``make()``."""
+        jax = configured()
+        out, skipped = {}, {}
+        _register_pytrees()
+        for key in self.keys:
+            fn = self._functions[key]
+            if key in self._exported:
+                out[key] = self._exported[key]
+                continue
+            reason = fn.unexportable() if fn.unexportable is not None else None
+            if reason is not None:
+                skipped[key] = reason
+                continue
+            make = lambda fn=fn: _serialize(jax, fn)        # noqa: E731
+            try:
+                out[key] = cached(key, fn.spec, make) if cached is not None else make()
+            except Exception as exc:     # noqa: BLE001 - host callbacks cannot be exported
+                skipped[key] = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
+        # from now on this bank runs the exported kernels too: nothing is traced twice
+        self._exported.update(out)
+        self._skipped_ok = self._skipped_ok | frozenset(skipped)
+        return out, skipped
+
+    @classmethod
+    def load(cls, exported: dict[str, bytes], skipped: Sequence[str], source: str) -> "KernelBank":
+        _register_pytrees()
+        bank = cls(exported, source)
+        bank._skipped_ok = frozenset(skipped)
+        return bank
+
+
+class BankFunction:
+    """A bank entry: call it like the jitted function it stands for."""
+
+    __slots__ = ("bank", "key", "spec", "unexportable", "_build", "_python", "_jitted",
+                 "__weakref__")
+
+    def __init__(self, bank: KernelBank, key: str, build: Callable[[], Callable], spec):
+        self.bank, self.key, self.spec = bank, key, spec
+        self._build, self._python, self._jitted = build, None, None
+        self.unexportable = None
+
+    def python(self) -> Callable:
+        """The traceable Python function (built on first use: this lowers IR)."""
+        if self._python is None:
+            self._python = self._build()
+        return self._python
+
+    def __call__(self, *args):
+        if self._jitted is None:
+            self._jitted = self.bank._resolve(self)
+        return self._jitted(*args)
+
+
+def _serialize(jax, fn: BankFunction) -> bytes:
+    from jax import export
+    return bytes(export.export(jax.jit(fn.python()))(*_shape_structs(jax, fn.spec)).serialize())
+
+
+def _shape_structs(jax, spec: Sequence[ArgSpec]):
+    from jax import export
+    (b,) = export.symbolic_shape("b")
+    return [jax.ShapeDtypeStruct(tuple(b if d == "b" else int(d) for d in shape), np.dtype(dt))
+            for shape, dt in spec]
+
+
+_REGISTERED = False
+
+
+def _register_pytrees() -> None:
+    """The NamedTuples kernels return, registered once for jax.export's serialization."""
+    global _REGISTERED
+    if _REGISTERED:
+        return
+    from jax import export
+    export.register_namedtuple_serialization(Frames, serialized_name="tmpc.Frames")
+    _REGISTERED = True

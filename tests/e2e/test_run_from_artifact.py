@@ -1,0 +1,135 @@
+"""The artifact is what runs (issue G): a run, a sample and an evaluation from a compiled artifact
+lower no IR and trace no kernel; `tmpc run CONFIG` compiles into the artifact cache once, and the
+next run of the same sources compiles nothing; a damaged or foreign cache entry is rebuilt with a
+warning."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+TABLETOP = ROOT / "examples" / "tabletop"
+
+
+class _NoLowering:
+    """Stands in for the IR lowerer and the Lua tracer: any call fails the test."""
+
+    def __init__(self, *a, **k):
+        raise AssertionError("IR lowering was called")
+
+
+def _forbid_lowering(monkeypatch):
+    import tmpc.compiler.compile as c
+    monkeypatch.setattr(c, "Lowerer", _NoLowering)
+    monkeypatch.setattr(c, "trace_module", _NoLowering)
+    monkeypatch.setattr(c, "condition_kernel", _NoLowering)
+    monkeypatch.setattr(c, "projector_fn", _NoLowering)
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("tmpc-cache")
+
+
+@pytest.fixture(scope="module")
+def artifact(tmp_path_factory, cache_dir):
+    """The tabletop example compiled, its sources deleted."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.export import build_artifact
+    d = tmp_path_factory.mktemp("art")
+    shutil.copytree(TABLETOP, d / "src")
+    out = d / "tabletop.tmpa"
+    build_artifact(open_world(d / "src" / "tabletop.toml"), out)
+    shutil.rmtree(d / "src")
+    return out
+
+
+def test_plan_sample_and_eval_from_the_artifact_lower_nothing(artifact, monkeypatch):
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.compile import compile_world
+    from tmpc.compiler.state import initial_state
+    from tmpc.lang.source import SourceFile
+    from tmpc.runtime.plans import parse_plan, plan_document
+    from tmpc.runtime.probe import predicate_at, sample_states
+    from tmpc.runtime.solve import plan_problem
+    from tmpc.runtime.validate import validate_plan
+    _forbid_lowering(monkeypatch)
+    world = open_world(artifact)
+    problem, result, _ = plan_problem(world, seed=0, time_limit=60.0)
+    assert result.status == "solved"
+    compiled = compile_world(world)
+    assert problem.setup["traced"] == [] and compiled.bank.stats.deserialized > 0
+    doc = plan_document(problem, result, planner="unified", seed=0, input_path=str(artifact),
+                        setup_seconds=0.0)
+    assert validate_plan(world, parse_plan(SourceFile("<p>", json.dumps(doc)))).valid
+
+    # sample: the predicate's projector, from the artifact
+    s0 = initial_state(world.scene, compiled.model)
+    f = compiled.predicate("reach")
+    obj = next(o.name for o in world.scene.objects if o.movable)
+    ids = compiled.bind_args(f, ["panda_hand_tcp", obj])
+    got = sample_states(compiled, f, ids, s0, 3, np.random.default_rng(0), 30, 4096)
+    assert len(got.found) == 3
+    # eval: truth, distance and gradient of the same predicate
+    out = predicate_at(compiled, s0, ["reach", "panda_hand_tcp", obj])
+    assert out["distance"] >= 0 and len(out["gradient"]) == compiled.model.dof
+    assert compiled.bank.stats.traced == 0, compiled.bank.stats.traced_keys
+
+
+def test_a_run_from_the_cache_compiles_nothing(cache_dir, monkeypatch, tmp_path):
+    from tmpc.runtime.solve import open_input, plan_problem
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(cache_dir))
+    src = tmp_path / "tabletop"
+    shutil.copytree(TABLETOP, src)
+    world, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "compiled"
+    _forbid_lowering(monkeypatch)
+    world, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "cache"
+    problem, result, _ = plan_problem(world, seed=1, time_limit=60.0)
+    assert result.status == "solved" and problem.setup["traced"] == []
+    # a changed source is a different key: compiled anew, not the stale artifact
+    monkeypatch.undo()
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(cache_dir))
+    problem_file = src / "problem.pddl"
+    problem_file.write_text(problem_file.read_text() + "\n; changed\n")
+    _, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "compiled"
+
+
+def test_a_damaged_cache_entry_is_rebuilt_with_a_warning(cache_dir, monkeypatch, tmp_path):
+    from tmpc.compiler.cache import run_artifact, source_key
+    from tmpc.compiler.kernels import Options
+    from tmpc.lang.inputs import load_world
+    from tmpc.runtime.solve import open_input
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(cache_dir))
+    src = tmp_path / "tabletop"
+    shutil.copytree(TABLETOP, src)
+    open_input(src / "tabletop.toml")
+    art = run_artifact(source_key(load_world(src / "tabletop.toml"), Options()))
+    data = bytearray(art.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    art.write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="damaged"):
+        _, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "compiled"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "cache"
+
+
+def test_kernels_of_another_jax_are_traced_with_a_warning(artifact, tmp_path):
+    from tmpc.compiler.artifact import load_bank, read_manifest
+    manifest, z = read_manifest(artifact)
+    manifest = dict(manifest, jax="0.0.1")
+    with pytest.warns(UserWarning, match="JAX 0.0.1"):
+        bank = load_bank(artifact, manifest)
+    assert not bank.has_exported("fk")
+    z.close()
