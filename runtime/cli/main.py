@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from typing import Callable
 
 from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
@@ -59,8 +60,9 @@ def cmd_plan(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from tmpc.runtime.cli.run import run_run
-    return run_run(args)
+    t = time.perf_counter()
+    from tmpc.runtime.cli.run import run_run     # numpy, JAX, fcl, trimesh: timed for `-v`
+    return run_run(args, imports=time.perf_counter() - t)
 
 
 def cmd_validate(args) -> int:

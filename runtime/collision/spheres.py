@@ -30,6 +30,7 @@ from tmpc.compiler.jaxcfg import configured
 from tmpc.compiler.robot import homogeneous
 from tmpc.lang.world import Shape
 from tmpc.runtime.collision.batch import pad_batch
+from tmpc.runtime.collision.store import TABLE_FIELDS, FirstPassStore, mesh_key, robot_key
 
 if TYPE_CHECKING:
     from tmpc.runtime.collision.geometry import MeshData
@@ -112,9 +113,10 @@ _MESH_COVERS: dict = {}
 
 
 def cover(shape: Shape, mesh: "MeshData | None", k_max: int = K_MAX,
-          r_target: float = R_TARGET) -> tuple[np.ndarray, np.ndarray]:
+          r_target: float = R_TARGET, store=None) -> tuple[np.ndarray, np.ndarray]:
     """Balls (centers (m, 3), radii (m,)) in the geometry frame whose union contains it (for a
-    mesh: its surface, which is all fcl's BVH test sees)."""
+    mesh: its surface, which is all fcl's BVH test sees). ``store``: a
+    :class:`~tmpc.runtime.collision.store.FirstPassStore` keeping mesh covers between runs."""
     if shape.kind == "sphere":
         C, r = np.zeros((1, 3)), np.array([float(shape.radius)])
     elif shape.kind == "box":
@@ -128,9 +130,21 @@ def cover(shape: Shape, mesh: "MeshData | None", k_max: int = K_MAX,
     else:
         key = (id(mesh), k_max, r_target)
         if key not in _MESH_COVERS:
-            _MESH_COVERS[key] = (mesh, _cover_mesh(mesh, k_max, r_target))
+            _MESH_COVERS[key] = (mesh, _stored_cover(mesh, k_max, r_target, store))
         C, r = _MESH_COVERS[key][1]
     return C, _inflate(r)
+
+
+def _stored_cover(mesh: "MeshData", k_max: int, r_target: float, store):
+    if store is None:
+        return _cover_mesh(mesh, k_max, r_target)
+    name = "cover/" + mesh_key(mesh.vertices, mesh.faces, k_max, r_target)
+    got = store.get(name)
+    if got is None:
+        C, r = _cover_mesh(mesh, k_max, r_target)
+        store.put(name, {"C": C, "r": r})
+        return C, r
+    return got["C"], got["r"]
 
 
 def _cover_mesh(mesh: "MeshData", k_max: int, r_target: float):
@@ -223,7 +237,15 @@ class FirstPass:
 
     def __init__(self, world: "CollisionWorld", k_max: int = K_MAX, r_target: float = R_TARGET):
         self.world = world
-        self.covers = [cover(g.shape, g.mesh, k_max, r_target) for g in world.geoms]
+        self.store = (FirstPassStore(robot_key(world.model, k_max, r_target, GJK_MARGIN))
+                      if world.model is not None else None)
+        self.covers = [cover(g.shape, g.mesh, k_max, r_target, self.store) for g in world.geoms]
+        seen: dict[int, int] = {}
+        #: a name of each geometry that is the same in every run: its body and its index there
+        self._gname = []
+        for g in world.geoms:
+            k = seen[g.body] = seen.get(g.body, -1) + 1
+            self._gname.append(f"{world.bodies[g.body].name}#{k}")
         self.balls = [ball(g.shape, g.mesh) for g in world.geoms]
         self.K = max([len(c[1]) for c in self.covers] + [1])
         self._fk = _jit_frames_T(world.fk)
@@ -244,6 +266,8 @@ class FirstPass:
             if len(self._plans) >= 16:
                 self._plans.pop(next(iter(self._plans)))
             self._plans[key] = self._plan(place, allowed)
+            if self.store is not None:
+                self.store.save()            # covers and tables built for it, for the next run
         return self._plans[key]
 
     def _plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
@@ -300,8 +324,20 @@ class FirstPass:
             return None
         key = (min(ga, gb), max(ga, gb))
         if key not in self._tables:
-            self._tables[key] = PairTable.build(self.world, *key)
+            self._tables[key] = self._stored_table(*key)
         return self._tables[key]
+
+    def _stored_table(self, ga: int, gb: int) -> "PairTable | None":
+        if self.store is None:
+            return PairTable.build(self.world, ga, gb)
+        name = f"table/{self._gname[ga]}|{self._gname[gb]}"
+        got = self.store.get(name)
+        if got is not None:
+            return None if "none" in got else PairTable(ga, gb, *(got[f] for f in TABLE_FIELDS))
+        table = PairTable.build(self.world, ga, gb)
+        self.store.put(name, {"none": np.zeros(0)} if table is None else
+                       {f: getattr(table, f) for f in TABLE_FIELDS})
+        return table
 
     def _world_box(self, g: int, T: np.ndarray):
         geom = self.world.geoms[g]

@@ -332,6 +332,31 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     assert w.stats.states >= 6000
 
 
+def test_batched_motion_checks_equal_exact_fcl(pr2_mobile):
+    """Random straight motions: the batched path (all interpolated states through the first
+    pass, fcl only on its candidates) finds the same first colliding state as exact fcl."""
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = pr2_mobile
+    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
+                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
+            for k in range(4)]
+    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
+                                                                  mobile_base=True), tuple(objs))
+    fast, exact = CollisionWorld(sc, model, fk), CollisionWorld(sc, model, fk, first_pass=False)
+    rng = np.random.default_rng(5)
+    A = rng.uniform(model.lower, model.upper, (60, model.dof))
+    A[:, :2] = rng.uniform(-0.8, 0.8, (60, 2))
+    B = np.clip(A + rng.normal(size=A.shape) * 0.4, model.lower, model.upper)
+    outcomes = set()
+    for a, b in zip(A, B):
+        m1 = fast.check_motion(a, b, 0.05, details=False)
+        m2 = exact.check_motion(a, b, 0.05, details=False)
+        assert (m1.valid, m1.t_first_collision, m1.steps) == \
+            (m2.valid, m2.t_first_collision, m2.steps)
+        outcomes.add(m1.valid)
+    assert outcomes == {True, False}          # both kinds of motion were exercised
+
+
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
