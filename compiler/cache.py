@@ -6,7 +6,7 @@
 * ``exports/`` — serialized kernels by (sources, kernel, versions), reused by ``tmpc compile``;
 * ``runs/`` — artifacts compiled for ``tmpc run CONFIG``, named by :func:`source_key`: the digests
   of every file the run reads (configuration, domain, problem, scene, Lua predicates, allowed
-  pairs, URDF, SRDF, meshes) with the tmpc and JAX versions and the compile options. An unchanged
+  pairs, URDF, SRDF, meshes) with tmpc's code digest, the JAX version and the compile options. An unchanged
   problem is compiled once; a changed byte anywhere compiles anew;
 * ``artifacts/`` — artifacts extracted for running, by manifest digest.
 
@@ -18,10 +18,12 @@ last rename wins.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import json
 import os
 import shutil
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -43,6 +45,20 @@ def _version(pkg: str) -> str:
         return version(pkg)
     except PackageNotFoundError:
         return "unknown"
+
+
+@lru_cache(maxsize=1)
+def code_digest() -> str:
+    """The digest of tmpc's own code and data files (and its version): cached artifacts and
+    kernels made by other code are never reused, even under the same version number (a
+    development checkout). About 10 ms."""
+    h = hashlib.sha256(_version("tmpc").encode())
+    for pkg in ("lang", "compiler", "runtime", "stdlib"):
+        for base in sorted(Path(p) for p in importlib.import_module(f"tmpc.{pkg}").__path__):
+            for f in sorted(base.rglob("*")):
+                if f.suffix in (".py", ".lark", ".tmpc", ".lua", ".js") and f.is_file():
+                    h.update(f.relative_to(base).as_posix().encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()[:24]
 
 
 def source_files(world) -> list[Path]:
@@ -71,7 +87,7 @@ def source_key(world, options) -> str:
     h = hashlib.sha256()
     for f in source_files(world):
         h.update(str(f.resolve()).encode() + b"\0" + hashlib.sha256(f.read_bytes()).digest())
-    h.update(json.dumps([_version("tmpc"), _version("jax"), repr(options)]).encode())
+    h.update(json.dumps([code_digest(), _version("jax"), repr(options)]).encode())
     return h.hexdigest()[:32]
 
 

@@ -21,7 +21,7 @@ from tmpc.compiler.artifact import (
     package_version,
     read_manifest,
 )
-from tmpc.compiler.cache import cache_root, run_artifact, source_key
+from tmpc.compiler.cache import cache_root, code_digest, run_artifact, source_key
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import GroundingError, ground
 from tmpc.compiler.kernels import Options
@@ -125,7 +125,7 @@ def _cached(sources: str, options) -> "callable":
     recompiling an unchanged problem reuses them (exporting traces and lowers every kernel,
     which dominates compile time)."""
     def cached(key: str, spec: tuple, make) -> bytes:
-        name = digest(json.dumps([sources, key, repr(spec), package_version("tmpc"),
+        name = digest(json.dumps([sources, key, repr(spec), code_digest(),
                                   package_version("jax"), repr(options)]).encode())
         path = cache_root() / "exports" / f"{name}.jaxexport"
         if path.is_file():

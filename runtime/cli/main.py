@@ -61,7 +61,7 @@ def cmd_plan(args) -> int:
 
 def cmd_run(args) -> int:
     t = time.perf_counter()
-    from tmpc.runtime.cli.run import run_run     # numpy, JAX, fcl, trimesh: timed for `-v`
+    from tmpc.runtime.cli.run import run_run  # numpy, JAX, fcl, trimesh: timed for `-v`
     return run_run(args, imports=time.perf_counter() - t)
 
 

@@ -22,8 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tmpc.compiler.artifact import package_version
-from tmpc.compiler.cache import cache_root
+from tmpc.compiler.cache import cache_root, code_digest
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.lang.world import find_srdf
 
@@ -86,5 +85,5 @@ def robot_key(model, *params) -> str:
     if srdf is not None:
         h.update(Path(srdf).read_bytes())
     h.update(repr((tuple(model.q_names), tuple(map(float, model.lower)),
-                   tuple(map(float, model.upper)), params, package_version("tmpc"))).encode())
+                   tuple(map(float, model.upper)), params, code_digest())).encode())
     return h.hexdigest()[:24]
