@@ -8,7 +8,8 @@
   of every file the run reads (configuration, domain, problem, scene, Lua predicates, allowed
   pairs, URDF, SRDF, meshes) with tmpc's code digest, the JAX version and the compile options. An unchanged
   problem is compiled once; a changed byte anywhere compiles anew;
-* ``artifacts/`` — artifacts extracted for running, by manifest digest.
+* ``artifacts/`` — artifacts extracted for running, by manifest digest;
+* ``collision/`` — the collision first pass's sphere covers and pair tables, by robot.
 
 Every file is written atomically (temporary file, then rename), so concurrent runs never see a
 partial artifact; two runs compiling the same problem at once both write a complete one and the
@@ -33,6 +34,7 @@ from tmpc.lang.world import find_srdf, load_urdf
 PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
          "artifacts": "artifacts extracted for running",
          "exports": "serialized kernels reused by `tmpc compile`",
+         "collision": "sphere covers and pair tables of robots (the collision first pass)",
          "jax": "XLA's persistent compilation cache"}
 
 

@@ -184,11 +184,20 @@ def build_artifact(world, out: str | Path, register=None) -> dict:
     }
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        z.writestr(MAGIC_MEMBER, json.dumps(manifest, indent=1))
+        _write(z, MAGIC_MEMBER, json.dumps(manifest, indent=1).encode())
         for name, data in sorted(members.files.items()):
-            z.writestr(name, data)
+            _write(z, name, data)
     atomic_write_bytes(out, buf.getvalue())
     return manifest
+
+
+def _write(z: zipfile.ZipFile, name: str, data: bytes) -> None:
+    """One member with a fixed timestamp: the same input compiles to the same bytes (the
+    artifact cache is content-addressed)."""
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = 0o644 << 16
+    z.writestr(info, data)
 
 
 def _member_name(key: str) -> str:
@@ -208,11 +217,12 @@ def _smt_section(members: _Members, prog) -> dict:
                           for name, text in sorted(templates.items())}}
 
 
-def open_for_run(path, register=None):
+def open_for_run(path, register=None, on_compile=None):
     """The world ``tmpc run`` plans in, and how its kernels were had: an artifact as it is
     (``"artifact"``); a run configuration through the artifact cache (:mod:`tmpc.compiler.cache`):
     ``"cache"`` when an artifact of exactly these sources is there, else ``"compiled"`` after
-    compiling one into the cache. A damaged cache entry is compiled again, with a warning."""
+    compiling one into the cache (``on_compile(path)`` is called first: it takes a while). A
+    damaged cache entry is compiled again, with a warning."""
     if is_artifact(path):
         return open_world(path), "artifact"
     world = load_world(path)
@@ -229,5 +239,7 @@ def open_for_run(path, register=None):
                           "compiling it again", stacklevel=2)
             art.unlink(missing_ok=True)
     art.parent.mkdir(parents=True, exist_ok=True)
+    if on_compile is not None:
+        on_compile(art)
     build_artifact(world, art, register)
     return world, "compiled"

@@ -13,12 +13,12 @@ from tmpc.runtime.planners import make_planner
 from tmpc.runtime.problem import PlanningProblem
 
 
-def open_input(path) -> tuple[World, dict]:
+def open_input(path, on_compile=None) -> tuple[World, dict]:
     """The world to plan in (:func:`~tmpc.compiler.export.open_for_run`: an artifact, or a
     configuration through the artifact cache) and the seconds spent: ``load``, and ``compile``
     when the cache had no artifact of these sources."""
     t = time.perf_counter()
-    world, how = open_for_run(path)
+    world, how = open_for_run(path, on_compile=on_compile)
     spent = time.perf_counter() - t
     return world, {"kernels": how, ("compile" if how == "compiled" else "load"): spent}
 

@@ -22,7 +22,7 @@ DEFAULT_TIME_LIMIT = 120.0
 
 def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
-    world, opened = open_input(args.input)
+    world, opened = open_input(args.input, on_compile=None if args.quiet else _compiling)
     # the command line wins; else the configuration's time limit and output (planet's TOML
     # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
     config = world.config
@@ -46,11 +46,14 @@ def run_run(args, imports: float = 0.0) -> int:
     if output:
         data = legacy_states(doc, args.legacy_output) if args.legacy_output else doc
         write_json_atomic(output, data)
+        sys.stderr.write(f"wrote {output}\n")
     if args.html or args.png:
         if args.html:
             write_html(problem.world, doc, args.html)
+            sys.stderr.write(f"wrote {args.html}\n")
         if args.png:
             write_png(problem.world, doc, args.png)
+            sys.stderr.write(f"wrote {args.png}\n")
     split["output"] = time.perf_counter() - t
     _report(doc, result, setup)
     if args.verbose:
@@ -61,6 +64,11 @@ def run_run(args, imports: float = 0.0) -> int:
 def planner_overrides(args) -> dict:
     """The planner options given on the command line (None where not given)."""
     return {"heuristic_bias": getattr(args, "heuristic_bias", None)}
+
+
+def _compiling(path) -> None:
+    sys.stderr.write("compiling the problem into the artifact cache (its first run; later runs "
+                     f"of the same files start from {path.name})...\n")
 
 
 def _report_setup(split: dict, result) -> None:

@@ -133,3 +133,17 @@ def test_kernels_of_another_jax_are_traced_with_a_warning(artifact, tmp_path):
         bank = load_bank(artifact, manifest)
     assert not bank.has_exported("fk")
     z.close()
+
+
+def test_the_same_sources_compile_to_the_same_bytes(tmp_path, monkeypatch):
+    """Two compiles with separate caches (nothing shared but the sources) give identical files:
+    no timestamps, a fixed member order, deterministic exports."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.export import build_artifact
+    outs = []
+    for i in range(2):
+        monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path / f"cache{i}"))
+        out = tmp_path / f"t{i}.tmpa"
+        build_artifact(open_world(TABLETOP / "tabletop.toml"), out)
+        outs.append(out.read_bytes())
+    assert outs[0] == outs[1]
