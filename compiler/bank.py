@@ -132,12 +132,30 @@ class BankFunction:
     """A bank entry: call it like the jitted function it stands for."""
 
     __slots__ = ("bank", "key", "spec", "unexportable", "_build", "_python", "_jitted",
-                 "__weakref__")
+                 "_sizes", "_batch_at", "__weakref__")
 
     def __init__(self, bank: KernelBank, key: str, build: Callable[[], Callable], spec):
         self.bank, self.key, self.spec = bank, key, spec
         self._build, self._python, self._jitted = build, None, None
         self.unexportable = None
+        self._sizes: dict[int, BankFunction] = {}
+        self._batch_at = next(((i, shape.index("b")) for i, (shape, _) in enumerate(spec)
+                               if "b" in shape), None)
+
+    def specialize(self, sizes) -> "BankFunction":
+        """Also export (and call) this function at these concrete batch sizes: a call with one
+        of them runs ``key@size``, which XLA loads without refining symbolic shapes (~0.08 s
+        per kernel and call site on the PR2); other sizes run the symbolic kernel."""
+        if self._batch_at is None:
+            return self
+        for n in sizes:
+            if n not in self._sizes:
+                spec = tuple((tuple(n if d == "b" else d for d in shape), dt)
+                             for shape, dt in self.spec)
+                # one Python function (one lowering) for every size
+                self._sizes[int(n)] = self.bank.function(f"{self.key}@{n}", self.python, spec,
+                                                         self.unexportable)
+        return self
 
     def python(self) -> Callable:
         """The traceable Python function (built on first use: this lowers IR)."""
@@ -146,6 +164,14 @@ class BankFunction:
         return self._python
 
     def __call__(self, *args):
+        if self._sizes:
+            i, j = self._batch_at
+            sub = self._sizes.get(args[i].shape[j])
+            # an artifact without this size (made without the runtime's sizes) runs the symbolic
+            # kernel it has rather than tracing
+            if sub is not None and (self.bank._source is None or
+                                    self.bank.has_exported(sub.key)):
+                return sub(*args)
         if self._jitted is None:
             self._jitted = self.bank._resolve(self)
         return self._jitted(*args)

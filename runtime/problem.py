@@ -65,6 +65,25 @@ class Timers:
         return {k: round(v, 4) for k, v in vars(self).items()}
 
 
+def batch_shapes(compiled) -> None:
+    """The batch sizes planning calls kernels with, for the bank to export concretely: the
+    projection batch of every action schema's and the goal's projector, the collision checker's
+    padded batches of the forward kinematics. Called before exporting (``tmpc compile``, the run
+    cache) and by every problem, so a run from an artifact calls the concrete kernels."""
+    if compiled.model is None or compiled.program is None:
+        return
+    compiled.fk_batch.specialize(PAD_SIZES)
+    for act in compiled.program.domain.actions:
+        compiled.projector(compiled.action(act.name.text)).specialize((PROJECTION_BATCH,))
+    if compiled.program.problem is not None and compiled.goal is not None:
+        compiled.projector(compiled.goal).specialize((PROJECTION_BATCH,))
+
+
+def register_run_kernels(world, compiled) -> None:
+    """``build_artifact``'s ``register``: what a run needs beyond the compiler's own list."""
+    batch_shapes(compiled)
+
+
 class PlanningProblem:
     """Everything a TMP planner needs about one problem (see the module docstring)."""
 
@@ -76,6 +95,7 @@ class PlanningProblem:
         self.compiled = compile_world(world)
         if self.compiled.model is None:
             raise InputError(error("E821", "the scene has no robot to plan for", None))
+        batch_shapes(self.compiled)
         self.world = world
         self.model = self.compiled.model
         self.timers = Timers()

@@ -10,7 +10,7 @@ import numpy as np
 from tmpc.compiler.export import open_for_run
 from tmpc.lang.inputs import World
 from tmpc.runtime.planners import make_planner
-from tmpc.runtime.problem import PlanningProblem
+from tmpc.runtime.problem import PlanningProblem, register_run_kernels
 
 
 def open_input(path, on_compile=None) -> tuple[World, dict]:
@@ -18,7 +18,7 @@ def open_input(path, on_compile=None) -> tuple[World, dict]:
     configuration through the artifact cache) and the seconds spent: ``load``, and ``compile``
     when the cache had no artifact of these sources."""
     t = time.perf_counter()
-    world, how = open_for_run(path, on_compile=on_compile)
+    world, how = open_for_run(path, register_run_kernels, on_compile=on_compile)
     spent = time.perf_counter() - t
     return world, {"kernels": how, ("compile" if how == "compiled" else "load"): spent}
 

@@ -12,6 +12,7 @@ from tmpc.compiler.export import build_artifact
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.inputs import load_world
 from tmpc.runtime.cli.exits import EXIT_OK
+from tmpc.runtime.problem import register_run_kernels
 
 
 def run_compile(args) -> int:
@@ -25,7 +26,7 @@ def run_compile(args) -> int:
     if world.program is None:
         raise InputError(error("E585", f"{args.input}: a scene alone cannot be compiled; give a "
                                "run configuration that names the domain and problem", None))
-    manifest = build_artifact(world, args.output)
+    manifest = build_artifact(world, args.output, register_run_kernels)
     kernels = manifest["bank"]["kernels"]
     skipped = sorted(k for k, member in kernels.items() if member is None)
     sys.stderr.write(f"wrote {args.output}: {len(kernels)} kernels"
