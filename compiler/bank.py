@@ -1,7 +1,7 @@
 """Jitted functions by name: the artifact's exported kernels when it has them, else traced.
 
-Every JAX function a run calls (condition kernels, projectors, forward kinematics, the collision
-checker's frame functions) is obtained as ``bank.function(key, build, spec)``:
+Every JAX function the compiler builds for a run (condition kernels, projectors, distance
+gradients, forward kinematics) is obtained as ``bank.function(key, build, spec)``:
 
 * ``key`` names the function stably across processes (``"proj/action/pickup"``, ``"fk/batch"``);
 * ``build()`` returns the Python function to trace; it is called only when the bank has no
@@ -53,6 +53,8 @@ class KernelBank:
         self._exported = dict(exported or {})
         self._source = source            # where the exported kernels came from (for warnings)
         self._functions: dict[str, BankFunction] = {}
+        #: keys the artifact said it could not serialize (host callbacks): traced, no warning
+        self._skipped_ok: frozenset = frozenset()
         self.stats = BankStats()
 
     def function(self, key: str, build: Callable[[], Callable], spec: Sequence[ArgSpec],
@@ -89,9 +91,6 @@ class KernelBank:
         self.stats.traced += 1
         self.stats.traced_keys.append(fn.key)
         return jax.jit(fn.python())
-
-    #: keys the artifact said it could not serialize (host callbacks): traced without a warning
-    _skipped_ok: frozenset = frozenset()
 
     # ---- serialization -----------------------------------------------------------------------
     def export(self, cached: Callable[[str, tuple, Callable[[], bytes]], bytes] | None = None

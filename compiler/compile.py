@@ -243,18 +243,22 @@ class CompiledProgram:
                                   [((self.dof,), F64), *self._mode_spec(),
                                    ((len(formula.params),), I64)], _host_calls(formula))
 
-    def register_kernels(self) -> None:
+    def register_kernels(self, run_only: bool = False) -> None:
         """Name in the bank every kernel a run, ``tmpc sample`` and ``tmpc eval`` can call, so
         an artifact exports them all: per geometric predicate its condition, distance gradient
         and projector; per action schema with a geometric precondition its condition and
-        projector; the goal's; forward kinematics of one state and of a batch."""
+        projector; the goal's; forward kinematics of one state and of a batch. ``run_only``:
+        what planning calls (no gradients, no predicate projectors): the run cache's
+        artifacts, which only `tmpc run` reads, export half as much."""
         if self.model is None or self.program is None:
             return
         for decl in self.program.domain.predicates:
             if decl.kind is A.Kind.GEOMETRIC and (decl.semantics is not None
                                                   or self._has_external(decl.name.key)):
                 f = self.predicate(decl.name.text)
-                self.kernels(f), self.distance_grad(f), self.projector(f)
+                self.kernels(f)
+                if not run_only:
+                    self.distance_grad(f), self.projector(f)
         for act in self.program.domain.actions:
             f = self.action(act.name.text)
             self.kernels(f), self.projector(f)

@@ -140,10 +140,11 @@ def _cached(sources: str, options) -> "callable":
     return cached
 
 
-def build_artifact(world, out: str | Path, register=None) -> dict:
+def build_artifact(world, out: str | Path, register=None, run_only: bool = False) -> dict:
     """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``: every
     kernel :meth:`CompiledProgram.register_kernels` names, plus those ``register(world,
-    compiled)`` adds (the runtime's), exported. Returns the manifest."""
+    compiled)`` adds (the runtime's), exported; ``run_only``: only what planning calls (the run
+    cache's artifacts). Returns the manifest."""
     members = _Members()
     cfg, prog = world.config, world.program
     src = {"domain": members.add("src/domain.pddl", Path(cfg.domain).read_bytes()),
@@ -158,7 +159,7 @@ def build_artifact(world, out: str | Path, register=None) -> dict:
         run.append('semantics = "predicates.lua"')
     members.add("src/run.toml", ("\n".join(run) + "\n").encode())
     compiled = compile_world(world)
-    compiled.register_kernels()
+    compiled.register_kernels(run_only)
     if register is not None:
         register(world, compiled)          # what the runtime adds (the collision checker's)
     sources = digest(json.dumps({k: digest(v) for k, v in sorted(members.files.items())}).encode())
@@ -241,5 +242,5 @@ def open_for_run(path, register=None, on_compile=None):
     art.parent.mkdir(parents=True, exist_ok=True)
     if on_compile is not None:
         on_compile(art)
-    build_artifact(world, art, register)
+    build_artifact(world, art, register, run_only=True)
     return world, "compiled"
