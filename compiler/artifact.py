@@ -32,11 +32,10 @@ import shutil
 import tempfile
 import warnings
 import zipfile
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from tmpc.compiler.bank import KernelBank
-from tmpc.compiler.cache import cache_root
+from tmpc.compiler.cache import cache_root, package_version
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.inputs import load_world
 
@@ -46,13 +45,6 @@ MAGIC_MEMBER = "manifest.json"
 
 def digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
-
-
-def package_version(pkg: str) -> str:
-    try:
-        return version(pkg)
-    except PackageNotFoundError:
-        return "unknown"
 
 
 def _bad(path, msg: str, hint: str | None = None) -> InputError:

@@ -42,7 +42,8 @@ def cache_root() -> Path:
     return Path(os.environ.get("TMPC_CACHE_DIR") or os.path.join(Path.home(), ".cache", "tmpc"))
 
 
-def _version(pkg: str) -> str:
+def package_version(pkg: str) -> str:
+    """The installed version of a distribution (``unknown`` when it is not installed)."""
     try:
         return version(pkg)
     except PackageNotFoundError:
@@ -54,7 +55,7 @@ def code_digest() -> str:
     """The digest of tmpc's own code and data files (and its version): cached artifacts and
     kernels made by other code are never reused, even under the same version number (a
     development checkout). About 10 ms."""
-    h = hashlib.sha256(_version("tmpc").encode())
+    h = hashlib.sha256(package_version("tmpc").encode())
     for pkg in ("lang", "compiler", "runtime", "stdlib"):
         for base in sorted(Path(p) for p in importlib.import_module(f"tmpc.{pkg}").__path__):
             for f in sorted(base.rglob("*")):
@@ -89,7 +90,7 @@ def source_key(world, options) -> str:
     h = hashlib.sha256()
     for f in source_files(world):
         h.update(str(f.resolve()).encode() + b"\0" + hashlib.sha256(f.read_bytes()).digest())
-    h.update(json.dumps([code_digest(), _version("jax"), repr(options)]).encode())
+    h.update(json.dumps([code_digest(), package_version("jax"), repr(options)]).encode())
     return h.hexdigest()[:32]
 
 

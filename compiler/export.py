@@ -18,10 +18,9 @@ from tmpc.compiler.artifact import (
     digest,
     is_artifact,
     open_world,
-    package_version,
     read_manifest,
 )
-from tmpc.compiler.cache import cache_root, code_digest, run_artifact, source_key
+from tmpc.compiler.cache import cache_root, code_digest, package_version, run_artifact, source_key
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import GroundingError, ground
 from tmpc.compiler.kernels import Options
