@@ -9,6 +9,7 @@ import json
 import re
 import warnings
 import zipfile
+from typing import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -119,7 +120,7 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
             "robot": robot, "objects": objects, "allowed_collisions": pairs}
 
 
-def _cached(sources: str, options) -> "callable":
+def _cached(sources: str, options) -> Callable[[str, tuple, Callable[[], bytes]], bytes]:
     """Exported kernels are cached by (sources, key, spec, tmpc and JAX versions, options):
     recompiling an unchanged problem reuses them (exporting traces and lowers every kernel,
     which dominates compile time)."""
