@@ -9,9 +9,9 @@ import json
 import re
 import warnings
 import zipfile
-from typing import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from tmpc.compiler.artifact import (
     FORMAT,
@@ -172,7 +172,8 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
     model = compiled.model
     manifest = {
         "format": FORMAT, "tmpc": package_version("tmpc"), "jax": package_version("jax"),
-        "domain": prog.domain.name.text, "problem": prog.problem.name.text if prog.problem else None,
+        "domain": prog.domain.name.text,
+        "problem": prog.problem.name.text if prog.problem else None,
         "options": {"tol": compiled.options.tol, "and_mode": compiled.options.and_mode},
         "layout": {"q": list(model.q_names) if model else [],
                    "lower": [float(v) for v in model.lower] if model else [],
@@ -207,9 +208,9 @@ def _member_name(key: str) -> str:
 
 
 def _smt_section(members: _Members, prog) -> dict:
-    """The task planner's step encoding as SMT-LIB2 templates (compiler/smt/encode.py, geometric mode:
-    blocker variables included), one member per template; a problem too large to ground says why
-    instead of failing the artifact."""
+    """The task planner's step encoding as SMT-LIB2 templates (compiler/smt/encode.py, geometric
+    mode: blocker variables included), one member per template; a problem too large to ground
+    says why instead of failing the artifact."""
     try:
         templates = smtlib_templates(ground(prog), geometric=True)
     except GroundingError as exc:
