@@ -9,7 +9,9 @@
   pairs, URDF, SRDF, meshes) with tmpc's code digest, the JAX version and the compile options. An unchanged
   problem is compiled once; a changed byte anywhere compiles anew;
 * ``artifacts/`` — artifacts extracted for running, by manifest digest;
-* ``collision/`` — the collision first pass's sphere covers and pair tables, by robot.
+* ``collision/`` — the collision first pass's sphere covers and pair tables, by robot, and
+  collision meshes as arrays (with their convex hulls), by file contents;
+* ``robots/`` — parsed URDFs (:func:`robot_tree`), so a warm run imports no URDF parser.
 
 Every file is written atomically (temporary file, then rename), so concurrent runs never see a
 partial artifact; two runs compiling the same problem at once both write a complete one and the
@@ -28,13 +30,23 @@ from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from tmpc.lang.world import find_srdf, load_urdf
+from tmpc.lang.fileio import atomic_write_text
+from tmpc.lang.world import (
+    KinematicTree,
+    example_robot_data_dir,
+    find_file,
+    find_srdf,
+    load_urdf,
+    tree_from_data,
+    tree_to_data,
+)
 
 #: the sub-directories `tmpc cache info` reports and `tmpc cache clear` empties
 PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
          "artifacts": "artifacts extracted for running",
          "exports": "serialized kernels reused by `tmpc compile`",
-         "collision": "sphere covers and pair tables of robots (the collision first pass)",
+         "collision": "collision meshes, sphere covers and pair tables of robots",
+         "robots": "parsed URDFs",
          "jax": "XLA's persistent compilation cache"}
 
 
@@ -64,6 +76,41 @@ def code_digest() -> str:
     return h.hexdigest()[:24]
 
 
+def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
+    """:func:`tmpc.lang.world.load_urdf` through the cache: a URDF parsed once is read back as
+    JSON (yourdfpy, and the trimesh it imports, cost ~0.7 s of a warm run's setup). The key is
+    the URDF's path and contents, the mesh search path and tmpc's code; an entry whose meshes
+    are no longer there, or that cannot be read, is parsed again (errors come from the parse)."""
+    path = find_file(str(ref), Path(base))
+    if path is None:                      # the parser says what was looked for
+        return load_urdf(ref, base, strict_meshes)
+    path = path.resolve()
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return load_urdf(ref, base, strict_meshes)
+    h = hashlib.sha256(json.dumps([str(path), strict_meshes, code_digest(),
+                                   os.environ.get("TMPC_MESH_PATH", ""),
+                                   os.environ.get("ROS_PACKAGE_PATH", ""),
+                                   str(example_robot_data_dir())]).encode())
+    h.update(hashlib.sha256(data).digest())
+    entry = cache_root() / "robots" / f"{h.hexdigest()[:32]}.json"
+    try:
+        tree = tree_from_data(json.loads(entry.read_text("utf-8")))
+        if all(g.shape.mesh is None or Path(g.shape.mesh).is_file()
+               for lk in tree.links for g in lk.collision):
+            return tree
+    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError):
+        pass
+    tree = load_urdf(ref, base, strict_meshes)
+    try:
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(entry, json.dumps(tree_to_data(tree)))
+    except OSError:
+        pass                              # a read-only cache is fine: just slower
+    return tree
+
+
 def source_files(world) -> list[Path]:
     """Every file a run of ``world`` reads: the sources loaded (configuration, PDDL, scene), the
     Lua predicates, the allowed-collision list, the robot's URDF and SRDF, and every mesh."""
@@ -72,7 +119,7 @@ def source_files(world) -> list[Path]:
     if cfg is not None:
         files.update(Path(p) for p in (cfg.semantics, cfg.allowed_collisions) if p)
     if scene.robot is not None:
-        tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        tree = robot_tree(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
         files.add(Path(tree.path))
         srdf = find_srdf(Path(tree.path))
         if srdf is not None:

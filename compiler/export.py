@@ -21,7 +21,14 @@ from tmpc.compiler.artifact import (
     open_world,
     read_manifest,
 )
-from tmpc.compiler.cache import cache_root, code_digest, package_version, run_artifact, source_key
+from tmpc.compiler.cache import (
+    cache_root,
+    code_digest,
+    package_version,
+    robot_tree,
+    run_artifact,
+    source_key,
+)
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import GroundingError, ground
 from tmpc.compiler.kernels import Options
@@ -29,7 +36,7 @@ from tmpc.compiler.smt import smtlib_templates
 from tmpc.lang.diagnostics import InputError
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.lang.inputs import load_world
-from tmpc.lang.world import find_file, find_srdf, load_urdf
+from tmpc.lang.world import find_file, find_srdf
 
 
 @dataclass
@@ -111,7 +118,7 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
     # scene format is strict, so only pairs naming real things are carried over.
     known = {o.name.lower() for o in scene.objects}
     if scene.robot is not None:
-        tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        tree = robot_tree(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
         known |= {scene.robot.name.lower()} | {lk.name.lower() for lk in tree.links} | \
             {j.name.lower() for j in tree.joints}
     pairs = [list(p) for p in (*scene.allowed_collisions, *allowed)

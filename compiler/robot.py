@@ -18,10 +18,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from tmpc.compiler.cache import robot_tree
 from tmpc.compiler.jaxcfg import configured
 from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import SceneError, error
-from tmpc.lang.world import KinematicTree, Pose, RobotSpec, Scene, load_urdf
+from tmpc.lang.world import KinematicTree, Pose, RobotSpec, Scene
 
 BASE_DOFS = ("base_x", "base_y", "base_yaw")
 
@@ -269,5 +270,5 @@ def robot_model(scene: Scene, strict_meshes: bool = False) -> RobotModel | None:
     link mesh must load (E562), as collision checking needs."""
     if scene.robot is None:
         return None
-    tree = load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=strict_meshes)
+    tree = robot_tree(scene.robot.urdf, Path(scene.path).parent, strict_meshes=strict_meshes)
     return build_robot_model(tree, scene.robot, scene.bounds)

@@ -9,9 +9,12 @@ from tmpc.lang.world.loaders import LoadReport as LoadReport
 from tmpc.lang.world.loaders import load_allowed_pairs as load_allowed_pairs
 from tmpc.lang.world.loaders import load_scene as load_scene
 from tmpc.lang.world.robot import KinematicTree as KinematicTree
+from tmpc.lang.world.robot import example_robot_data_dir as example_robot_data_dir
 from tmpc.lang.world.robot import find_file as find_file
 from tmpc.lang.world.robot import find_srdf as find_srdf
 from tmpc.lang.world.robot import load_urdf as load_urdf
+from tmpc.lang.world.robot import tree_from_data as tree_from_data
+from tmpc.lang.world.robot import tree_to_data as tree_to_data
 from tmpc.lang.world.rotations import matrix_from_quat as matrix_from_quat
 from tmpc.lang.world.rotations import orthonormality_error as orthonormality_error
 from tmpc.lang.world.rotations import quat_from_matrix as quat_from_matrix

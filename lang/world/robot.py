@@ -266,3 +266,60 @@ def find_srdf(urdf_path: str | Path) -> Path | None:
         if cand.is_file():
             return cand
     return None
+
+
+# ---------------------------------------------------------------------------------------------
+# a parsed tree as plain data (the compiler's cache keeps it, so a warm run parses no URDF)
+
+TREE_FORMAT = "tmpc-tree/1"
+
+
+def tree_to_data(tree: KinematicTree) -> dict:
+    """``tree`` as JSON-ready data (:func:`tree_from_data` reverses it exactly)."""
+    def shape(s: Shape) -> dict:
+        return {"kind": s.kind, "size": list(s.size), "radius": s.radius, "length": s.length,
+                "mesh": None if s.mesh is None else str(s.mesh), "scale": list(s.scale),
+                "convex": s.convex}
+
+    return {"format": TREE_FORMAT, "name": tree.name, "root": tree.root, "path": tree.path,
+            "links": [{"name": lk.name,
+                       "collision": [{"shape": shape(g.shape), "origin": [list(r) for r in g.origin]}
+                                     for g in lk.collision]} for lk in tree.links],
+            "joints": [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
+                        "origin": [list(r) for r in j.origin], "axis": list(j.axis),
+                        "lower": j.lower, "upper": j.upper,
+                        "mimic": None if j.mimic is None else
+                        [j.mimic.joint, j.mimic.multiplier, j.mimic.offset]}
+                       for j in tree.joints]}
+
+
+def tree_from_data(d: dict) -> KinematicTree:
+    """The tree :func:`tree_to_data` wrote. Raises ``ValueError`` (or ``KeyError``,
+    ``TypeError``) for data of another shape: a cache entry that is not ours is rebuilt."""
+    if d.get("format") != TREE_FORMAT:
+        raise ValueError("not a tmpc kinematic tree")
+
+    def matrix(rows) -> Matrix4:
+        m = tuple(tuple(float(v) for v in row) for row in rows)
+        if len(m) != 4 or any(len(r) != 4 for r in m):
+            raise ValueError("a transform is 4x4")
+        return m
+
+    def shape(s: dict) -> Shape:
+        return Shape(str(s["kind"]), tuple(float(v) for v in s["size"]), float(s["radius"]),
+                     float(s["length"]), None if s["mesh"] is None else Path(s["mesh"]),
+                     tuple(float(v) for v in s["scale"]), bool(s["convex"]))
+
+    def opt(v):
+        return None if v is None else float(v)
+
+    links = tuple(Link(str(lk["name"]), tuple(Geometry(shape(g["shape"]), matrix(g["origin"]))
+                                              for g in lk["collision"]))
+                  for lk in d["links"])
+    joints = tuple(Joint(str(j["name"]), str(j["type"]), str(j["parent"]), str(j["child"]),
+                         matrix(j["origin"]), tuple(float(v) for v in j["axis"]),
+                         opt(j["lower"]), opt(j["upper"]),
+                         None if j["mimic"] is None else
+                         Mimic(str(j["mimic"][0]), float(j["mimic"][1]), float(j["mimic"][2])))
+                   for j in d["joints"])
+    return KinematicTree(str(d["name"]), str(d["root"]), links, joints, str(d["path"]))
