@@ -3,7 +3,7 @@
 Every JAX function the compiler builds for a run (condition kernels, projectors, distance
 gradients, forward kinematics) is obtained as ``bank.function(key, build, spec)``:
 
-* ``key`` names the function stably across processes (``"proj/action/pickup"``, ``"fk/batch"``);
+* ``key`` names the function stably across processes (``"proj/action/pickup"``, ``"fk/frames"``);
 * ``build()`` returns the Python function to trace; it is called only when the bank has no
   exported kernel for ``key`` (so a run from an artifact lowers no IR and traces nothing);
 * ``spec`` gives the argument shapes and dtypes, ``"b"`` marking the batch dimension, which is
@@ -20,6 +20,7 @@ nothing.
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -56,6 +57,7 @@ class KernelBank:
         #: keys the artifact said it could not serialize (host callbacks): traced, no warning
         self._skipped_ok: frozenset = frozenset()
         self.stats = BankStats()
+        self._lock = threading.Lock()
 
     def function(self, key: str, build: Callable[[], Callable], spec: Sequence[ArgSpec],
                  unexportable: Callable[[], str | None] | None = None) -> "BankFunction":
@@ -172,7 +174,9 @@ class BankFunction:
                                     self.bank.has_exported(sub.key)):
                 return sub(*args)
         if self._jitted is None:
-            self._jitted = self.bank._resolve(self)
+            with self.bank._lock:            # warm-up threads: deserialize and count once
+                if self._jitted is None:
+                    self._jitted = self.bank._resolve(self)
         return self._jitted(*args)
 
 

@@ -38,7 +38,7 @@ from tmpc.compiler.kernels import (
 )
 from tmpc.compiler.lower import Lowerer
 from tmpc.compiler.lua_trace import trace_module
-from tmpc.compiler.robot import RobotModel, make_fk, robot_model
+from tmpc.compiler.robot import RobotModel, make_fk, make_fk_frames, robot_model
 from tmpc.lang import ast as A
 from tmpc.lang.checker import CheckedProgram
 from tmpc.lang.diagnostics import InputError, error
@@ -102,11 +102,12 @@ class CompiledProgram:
         return self.bank.function("fk", lambda: make_fk(self.model), [((self.dof,), F64)])
 
     @cached_property
-    def fk_batch(self):
-        """Forward kinematics of a batch ``Q (b, n) -> Frames`` (None without a robot)."""
+    def fk_frames(self):
+        """Forward kinematics of a batch, batch-last: ``Q (b, n) -> (R (F, 3, 3, b), p (F, 3,
+        b))`` (:func:`~tmpc.compiler.robot.make_fk_frames`; None without a robot)."""
         if self.model is None:
             return None
-        return self.bank.function("fk/batch", lambda: make_fk(self.model),
+        return self.bank.function("fk/frames", lambda: make_fk_frames(self.model),
                                   [(("b", self.dof), F64)])
 
     @cached_property
@@ -264,7 +265,7 @@ class CompiledProgram:
             self.kernels(f), self.projector(f)
         if self.program.problem is not None and self.goal is not None:
             self.kernels(self.goal), self.projector(self.goal)
-        self.fk, self.fk_batch
+        self.fk, self.fk_frames
 
     def _condition(self, formula: Formula):
         """The traceable condition kernel (lowers the formula's IR)."""

@@ -255,6 +255,22 @@ def make_fk(model: RobotModel, only=None):
     return fk
 
 
+def make_fk_frames(model: RobotModel):
+    """``frames(Q: (B, n)) -> (R (F, 3, 3, B), p (F, 3, B))``: :func:`make_fk` of a batch,
+    batch-last. The collision checker's kinematics: its numpy stages select the frames they need
+    as contiguous rows and run over states along the last axis (measured 8x faster than
+    gathering from batch-first arrays); selecting there rather than in the kernel keeps one
+    kernel per batch size whatever the set of frames (objects held change it)."""
+    jnp = configured().numpy
+    fk = make_fk(model)
+
+    def frames(Q):
+        f = fk(Q)
+        return jnp.transpose(f.R, (1, 2, 3, 0)), jnp.transpose(f.p, (1, 2, 0))
+
+    return frames
+
+
 def homogeneous(frames: Frames):
     """(..., F, 4, 4) matrices from :class:`Frames` (numpy or JAX arrays)."""
     R, p = np.asarray(frames.R), np.asarray(frames.p)

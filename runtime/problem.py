@@ -20,6 +20,7 @@ not in the scene, a symbolic goal unreachable even in the delete relaxation — 
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,7 +31,8 @@ from tmpc.compiler.kernels import state_inputs
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.runtime.collision import PAD_SIZES, collision_world
+from tmpc.compiler.robot import Frames
+from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, pad_batch
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)
 PROJECTION_BATCH = 16
@@ -72,7 +74,7 @@ def batch_shapes(compiled) -> None:
     cache) and by every problem, so a run from an artifact calls the concrete kernels."""
     if compiled.model is None or compiled.program is None:
         return
-    compiled.fk_batch.specialize(PAD_SIZES)
+    compiled.fk_frames.specialize(PAD_SIZES)
     for act in compiled.program.domain.actions:
         compiled.projector(compiled.action(act.name.text)).specialize((PROJECTION_BATCH,))
     if compiled.program.problem is not None and compiled.goal is not None:
@@ -115,6 +117,7 @@ class PlanningProblem:
         self._goal = None
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
+        self._warming: list | None = None      # the background warm-up's futures
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
@@ -152,33 +155,55 @@ class PlanningProblem:
                 "check the goal atoms and the actions that add them (`tmpc plan` on the domain "
                 "and problem shows the symbolic side alone)"), self.world.files)
 
-    def warm_up(self, rng: np.random.Generator) -> float:
-        """Trace and compile what planning will call (every action schema's projector at the
-        projection batch shape, the goal's, the collision first pass at the batch shapes it
-        uses), so planning time is planning; returns the seconds spent (also in ``compile``)."""
-        t = time.perf_counter()
+    def start_warm_up(self, rng: np.random.Generator) -> None:
+        """Begin :meth:`warm_up`'s projector calls on background threads: loading a kernel is
+        mostly XLA reading its executable, which releases the GIL, so it overlaps the start
+        checks and the collision warm-up on this thread (2 cores: 0.9 -> 0.5 s on clutter)."""
+        if self._warming is not None:
+            return
         starts = self.uniform(rng, PROJECTION_BATCH)
         mode = self.initial
+        calls = []
         for action in {a.schema: a for a in self.ground.actions
                        if self.has_geometry(a)}.values():
             formula, proj, _ = self.projector(action.schema)
-            args = self.compiled.bind_args(formula, list(action.args))
-            np.asarray(proj(starts, mode.obj_T, mode.obj_parent, args)[0])
+            calls.append((proj, self.compiled.bind_args(formula, list(action.args))))
         if self.goal_formula() is not None:
-            np.asarray(self.goal_formula()[1](starts, mode.obj_T, mode.obj_parent,
-                                              np.zeros(0, np.int64))[0])
-        fp = self.collision.first_pass()
-        if fp is not None:
-            effects = [e for a in self.ground.actions
-                       for e in (*a.kinematic, *(k for ce in a.conditional for k in ce.kinematic))]
-            fp.reserve({f for f in (self.model.frame(e.parent) for e in effects)
-                        if f is not None})
+            calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="tmpc-warm-up")
+        self._warming = [pool.submit(lambda f=f, a=a: np.asarray(
+            f(starts, mode.obj_T, mode.obj_parent, a)[0])) for f, a in calls]
+        pool.shutdown(wait=False)
+
+    def warm_up(self, rng: np.random.Generator) -> float:
+        """Load (or, without an artifact, trace and compile) what planning will call, so
+        planning time is planning: every action schema's projector at the projection batch
+        shape, the goal's, and the collision checker's kinematics at the batch sizes motions
+        use (up to 128 states; a longer batch loads its kernel when it first comes). Returns
+        the seconds spent here, waiting included (also in ``compile``)."""
+        t = time.perf_counter()
+        self.start_warm_up(rng)
+        mode = self.initial
         for n in PAD_SIZES:
-            self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
-                                       attached=mode.held)
+            if n <= 128:
+                self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
+                                           attached=mode.held)
+        for fut in self._warming:
+            fut.result()
         spent = time.perf_counter() - t
         self.timers.compile += spent
         return spent
+
+    def frames_of(self, Q: np.ndarray) -> list[Frames]:
+        """Forward kinematics (numpy :class:`Frames`) of states Q (B, n), through the collision
+        checker's batched kernel (no kernel of its own to load)."""
+        out = []
+        for start in range(0, len(Q), CHUNK):
+            chunk = np.asarray(Q[start:start + CHUNK], float)
+            R, p = self.compiled.fk_frames(pad_batch(chunk))
+            R, p = np.asarray(R), np.asarray(p)
+            out += [Frames(R[..., i], p[..., i]) for i in range(len(chunk))]
+        return out
 
     # ---- modes -----------------------------------------------------------------------------------
     def make_mode(self, mode_id: int, sym: int, poses, held, parent=None, action=None) -> Mode:
@@ -193,7 +218,7 @@ class PlanningProblem:
         state = WorldState(q, dict(mode.poses), dict(mode.held))
         effects = self.ground.kinematic_effects(mode.sym, action, geo)
         if effects:
-            frames = self.compiled.fk(q)
+            frames = self.frames_of(np.asarray(q, float)[None])[0]
             for eff in effects:
                 if eff.op == "link":
                     state = grasp(state, self.model, eff.parent, eff.child, frames)

@@ -38,6 +38,7 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
         world, split = open_input(input_path)
     t = time.perf_counter()
     problem = PlanningProblem(world)
+    problem.start_warm_up(np.random.default_rng(seed))
     problem.check_goal_reachable()
     problem.check_start()
     algo = make_planner(planner, problem, seed, overrides)

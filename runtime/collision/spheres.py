@@ -20,14 +20,11 @@ pair for a whole batch (``coarse``); numpy tests the covers of the pairs that su
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.robot import homogeneous
 from tmpc.lang.world import Shape
 from tmpc.runtime.collision.batch import pad_batch
 from tmpc.runtime.collision.store import TABLE_FIELDS, FirstPassStore, mesh_key, robot_key
@@ -248,15 +245,8 @@ class FirstPass:
             self._gname.append(f"{world.bodies[g.body].name}#{k}")
         self.balls = [ball(g.shape, g.mesh) for g in world.geoms]
         self.K = max([len(c[1]) for c in self.covers] + [1])
-        self._fk = _jit_frames_T(world.fk)
-        self._used = np.zeros(0, np.int64)
         self._plans: dict = {}
         self._tables: dict = {}
-
-    def reserve(self, frames) -> None:
-        """Frames that will hold objects (kinematic parents): read them from the start so the
-        batched FK compiles once for every mode."""
-        self._used = np.union1d(self._used, np.asarray(list(frames), np.int64))
 
     def plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
         """The plan of a batch (cached: motions reuse it)."""
@@ -276,11 +266,9 @@ class FirstPass:
         body = w._geom_body
         moving = gframe >= 0                                   # per dynamic position
         mv = w.dynamic[moving]
-        # Frames read by the batched FK: every frame that carries a robot geometry plus those
-        # holding objects, grown monotonically so the jitted FK slice (one compile per frame set
-        # and batch shape) is reused across modes instead of retraced per held-object set.
-        self._used = np.union1d(self._used, gframe[moving]).astype(np.int64)
-        used = self._used
+        # the frames the pass reads from the batched FK: those carrying robot geometry or held
+        # objects (one kernel serves every set: the selection is numpy's)
+        used = np.unique(gframe[moving]).astype(np.int64)
         mpos = np.full(len(w.geoms), -1, np.int64)
         mpos[mv] = np.arange(len(mv))
         world_T = {int(g): local[k] for k, g in enumerate(w.dynamic) if not moving[k]}
@@ -346,8 +334,8 @@ class FirstPass:
 
     def candidates(self, Q: np.ndarray, plan: Plan) -> Candidates:
         """The pass over states Q (B, n)."""
-        R, p = self._fk(pad_batch(Q), plan.used)
-        R, p = np.asarray(R)[..., :len(Q)], np.asarray(p)[..., :len(Q)]
+        R, p = self.world.fk_frames(pad_batch(Q))
+        R, p = np.asarray(R)[plan.used][..., :len(Q)], np.asarray(p)[plan.used][..., :len(Q)]
         Rg, pg = R[plan.fpos], p[plan.fpos]                             # (M, 3, 3, B), (M, 3, B)
         bc = plan.ball_c[:, None, :, None]
         c = Rg[:, :, 0] * bc[:, :, 0] + Rg[:, :, 1] * bc[:, :, 1] + Rg[:, :, 2] * bc[:, :, 2] + pg
@@ -607,7 +595,11 @@ def _path_joints(model, link: str) -> list:
 
 
 def _frame_world(world, q, link: str) -> np.ndarray:
-    return homogeneous(world.fk(np.asarray(q, float)[None]))[0, world.model.frame(link)]
+    R, p = world.fk_frames(pad_batch(np.asarray(q, float)[None]))
+    f = world.model.frame(link)
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = np.asarray(R)[f, :, :, 0], np.asarray(p)[f, :, 0]
+    return T
 
 
 def _geom_world(world, frames, g: int) -> np.ndarray:
@@ -633,30 +625,3 @@ def _reach(geom, T: np.ndarray, o: np.ndarray) -> float:
 FINE_CHUNK = 4096
 
 
-def _jit_frames_T(fk):
-    """(Q, idx) -> R (U, 3, 3, B), p (U, 3, B) of frames idx, jitted once per idx (a constant
-    index lets XLA slice instead of gather: measured 3x faster). Batch-last, so that numpy's
-    per-pair arithmetic runs over contiguous rows of states (measured 8x faster than gathering
-    pairs out of batch-first arrays)."""
-    if fk in _FRAMES_T:
-        return _FRAMES_T[fk]
-    jax = configured()
-    jnp = jax.numpy
-    cache: dict = {}
-
-    def frames(Q, idx):
-        key = tuple(int(i) for i in idx)
-        if key not in cache:
-            sel = np.array(key, np.int64)
-
-            def run(Q):
-                f = fk(Q)
-                return (jnp.transpose(f.R[:, sel], (1, 2, 3, 0)),
-                        jnp.transpose(f.p[:, sel], (1, 2, 0)))
-            cache[key] = jax.jit(run)
-        return cache[key](Q)
-    _FRAMES_T[fk] = frames
-    return frames
-
-
-_FRAMES_T: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

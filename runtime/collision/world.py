@@ -32,7 +32,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.robot import RobotModel, make_fk, robot_model
+from tmpc.compiler.robot import RobotModel, make_fk, make_fk_frames, robot_model
 from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import SceneError, error
 from tmpc.lang.world import Scene, Shape, find_srdf
@@ -126,7 +126,7 @@ class CollisionWorld:
     bounding-sphere pass in batch and motion checks (off: exact fcl on every state).
     """
 
-    def __init__(self, scene: Scene, model: RobotModel, fk=None, tolerance: float = 0.0,
+    def __init__(self, scene: Scene, model: RobotModel, frames=None, tolerance: float = 0.0,
                  allowed: Iterable[tuple[str, str]] = (), *,
                  attach_allowed: Mapping[str, Iterable[str]] | None = None,
                  srdf: bool | str | Path = True, first_pass: bool = True):
@@ -135,7 +135,8 @@ class CollisionWorld:
             raise SceneError(error("E572", f"penetration tolerance {tolerance} must be a finite "
                                    "number >= 0", None, "planet used 0.021 m, tmit-star 0.029 m"))
         self.scene, self.model, self.tolerance = scene, model, float(tolerance)
-        self.fk = fk if fk is not None else _jit_fk(model)
+        #: batched kinematics, batch-last (:func:`tmpc.compiler.robot.make_fk_frames`)
+        self.fk_frames = frames if frames is not None else jit_fk_frames(model)
         self.bodies: list[Body] = []
         self.geoms: list[Geom] = []
         self._groups = rigid_groups(model.tree)
@@ -172,7 +173,6 @@ class CollisionWorld:
         self._dyn_mgr.registerObjects([self.geoms[i].obj for i in self.dynamic])
         self._dyn_mgr.setup()
         self._req = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
-        self._fk_sub = _jit_frames(self.fk)
         self._first_pass_enabled = first_pass
         self._first_pass = None
         self.stats = PassStats()
@@ -424,8 +424,9 @@ class CollisionWorld:
         gframe, local = self.geom_frames(place)
         used = np.unique(gframe[gframe >= 0])
         fpos = np.where(gframe >= 0, np.searchsorted(used, gframe), len(used))
-        R, p = self._fk_sub(pad_batch(Q), used)
-        R, p = np.asarray(R)[:len(Q)], np.asarray(p)[:len(Q)]
+        R, p = self.fk_frames(pad_batch(Q))
+        R = np.asarray(R)[used][..., :len(Q)].transpose(3, 0, 1, 2)
+        p = np.asarray(p)[used][..., :len(Q)].transpose(2, 0, 1)
         R = np.concatenate([R, np.broadcast_to(np.eye(3), (len(Q), 1, 3, 3))], 1)
         p = np.concatenate([p, np.zeros((len(Q), 1, 3))], 1)
         return fpos, local, R, p
@@ -620,16 +621,15 @@ def _jit_fk(model: RobotModel):
     return _JITTED[model]
 
 
-def _jit_frames(fk):
-    """jit(Q, idx -> (R, p) of frames idx), shared per ``fk``."""
-    if fk not in _JITTED:
-        jax = configured()
+def jit_fk_frames(model: RobotModel):
+    """The jitted batch-last FK of a model (:func:`make_fk_frames`), shared per model: the
+    kinematics of a world built without a compiled program."""
+    if model not in _JITTED_FRAMES:
+        _JITTED_FRAMES[model] = configured().jit(make_fk_frames(model))
+    return _JITTED_FRAMES[model]
 
-        def sub(Q, idx):
-            f = fk(Q)
-            return f.R[:, idx], f.p[:, idx]
-        _JITTED[fk] = jax.jit(sub)
-    return _JITTED[fk]
+
+_JITTED_FRAMES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def _world(R: np.ndarray, p: np.ndarray, fpos: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -661,5 +661,5 @@ def collision_world(world, compiled, tolerance: float = 0.0) -> CollisionWorld:
     :class:`~tmpc.compiler.compile.CompiledProgram`, for the forward kinematics). Every link mesh
     must load here (E562 names a missing one); kinematics alone does not need them."""
     model = robot_model(world.scene, strict_meshes=True) if compiled.model is not None else None
-    return CollisionWorld(world.scene, model, fk=compiled.fk_batch, tolerance=tolerance,
+    return CollisionWorld(world.scene, model, compiled.fk_frames, tolerance=tolerance,
                           allowed=world.allowed_pairs())

@@ -30,9 +30,10 @@ def plan_states(problem, path) -> list[dict]:
     """State dicts for ``path`` = [(q, mode, action executed there or None)]."""
     ground = problem.ground
     out = []
-    for q, mode, action in path:
+    frames = problem.frames_of(np.array([q for q, _, _ in path], float).reshape(len(path), -1))
+    for (q, mode, action), fr in zip(path, frames):
         state = WorldState(np.asarray(q, float), mode.poses, mode.held)
-        d = state_to_json(state, problem.model, problem.compiled.fk(state.q))
+        d = state_to_json(state, problem.model, fr)
         d.pop("mode", None)
         d["action"] = action_text(action) if action is not None else None
         d["mode"] = {"atoms": ground.state_atoms(mode.sym),

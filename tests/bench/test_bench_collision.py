@@ -53,15 +53,14 @@ def _rate(fn, n: int, repeat: int = 3) -> float:
 
 def test_pr2_clutter_collision_throughput():
     from tmpc.compiler.robot import build_robot_model
-    from tmpc.runtime.collision.world import CHUNK, CollisionWorld, PassStats, _jit_fk
+    from tmpc.runtime.collision.world import CHUNK, CollisionWorld, PassStats
 
     tree = load_urdf(PR2)
     spec = RobotSpec(urdf=tree.path, mobile_base=True)
     model = build_robot_model(tree, spec, bounds=((-2, 2), (-2, 2), (0, 2)))
-    fk = _jit_fk(model)
     sc = clutter(spec)
-    fast = CollisionWorld(sc, model, fk)
-    exact = CollisionWorld(sc, model, fk, first_pass=False)
+    fast = CollisionWorld(sc, model)
+    exact = CollisionWorld(sc, model, first_pass=False)
     rng = np.random.default_rng(1)
     Q = rng.uniform(model.lower, model.upper, (N_STATES, model.dof))
     Q[:, :2] = rng.uniform(-1.3, 1.3, (N_STATES, 2))      # base between the tables
@@ -85,7 +84,7 @@ def test_pr2_clutter_collision_throughput():
     place, allowed = fast.placements()
     plan = fp.plan(place, allowed)
     chunk = Q[:CHUNK]
-    t_fk = CHUNK / _rate(lambda: fp._fk(chunk, plan.used)[0].block_until_ready(), CHUNK, 7)
+    t_fk = CHUNK / _rate(lambda: fast.fk_frames(chunk)[0].block_until_ready(), CHUNK, 7)
     t_pass = CHUNK / _rate(lambda: fp.candidates(chunk, plan), CHUNK, 7)
     cand = fp.candidates(chunk, plan)
     t_conf = CHUNK / _rate(lambda: fast._confirm(cand, plan, False), CHUNK, 7)

@@ -78,7 +78,7 @@ def test_motion_checks_batched_vs_per_state():
     world = open_world(ROOT / "examples" / "clutter" / "clutter.toml")
     compiled = compile_world(world)
     fast = collision_world(world, compiled)
-    exact = CollisionWorld(world.scene, fast.model, fk=compiled.fk_batch, first_pass=False,
+    exact = CollisionWorld(world.scene, fast.model, compiled.fk_frames, first_pass=False,
                            allowed=world.allowed_pairs())
     model = compiled.model
     s0 = initial_state(world.scene, model)

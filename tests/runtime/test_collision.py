@@ -61,7 +61,7 @@ def scene(model, *objects, allowed=()):
 def world(robot, *objects, allowed_collisions=(), **kw):
     from tmpc.runtime.collision import CollisionWorld
     model, fk = robot
-    return CollisionWorld(scene(model, *objects, allowed=allowed_collisions), model, fk, **kw)
+    return CollisionWorld(scene(model, *objects, allowed=allowed_collisions), model, **kw)
 
 
 def frame_T(robot, q, name):
@@ -196,7 +196,7 @@ def test_an_object_on_the_robot_moves_with_the_base(pr2_mobile):
     sc = Scene("t", ((-3, 3), (-3, 3), (0, 2)),
                RobotSpec(urdf=model.tree.path, mobile_base=True), (bumper, post))
     from tmpc.runtime.collision import CollisionWorld
-    w = CollisionWorld(sc, model, pr2_mobile[1])
+    w = CollisionWorld(sc, model)
     there = q_with(model, base_x=1.0)
     assert w.check(model.default_q).valid
     assert names(w.check(there)) == {("bumper", "post")}
@@ -307,8 +307,8 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     objs.append(sphere("ball", (0.0, 0.0, 1.6), 0.1))
     sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
                                                                   mobile_base=True), tuple(objs))
-    w = CollisionWorld(sc, model, fk)
-    exact = CollisionWorld(sc, model, fk, first_pass=False)
+    w = CollisionWorld(sc, model)
+    exact = CollisionWorld(sc, model, first_pass=False)
     rng = np.random.default_rng(11)
     Q = rng.uniform(model.lower, model.upper, (3000, model.dof))
     Q[:, :2] = rng.uniform(-1.0, 1.0, (3000, 2))
@@ -342,7 +342,7 @@ def test_batched_motion_checks_equal_exact_fcl(pr2_mobile):
             for k in range(4)]
     sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
                                                                   mobile_base=True), tuple(objs))
-    fast, exact = CollisionWorld(sc, model, fk), CollisionWorld(sc, model, fk, first_pass=False)
+    fast, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
     rng = np.random.default_rng(5)
     A = rng.uniform(model.lower, model.upper, (60, model.dof))
     A[:, :2] = rng.uniform(-0.8, 0.8, (60, 2))
