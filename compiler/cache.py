@@ -30,6 +30,7 @@ from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+from tmpc.lang.diagnostics import SceneError
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.lang.world import (
     KinematicTree,
@@ -79,33 +80,39 @@ def code_digest() -> str:
 def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
     """:func:`tmpc.lang.world.load_urdf` through the cache: a URDF parsed once is read back as
     JSON (yourdfpy, and the trimesh it imports, cost ~0.7 s of a warm run's setup). The key is
-    the URDF's path and contents, the mesh search path and tmpc's code; an entry whose meshes
-    are no longer there, or that cannot be read, is parsed again (errors come from the parse)."""
+    the URDF's path and contents, the mesh search path and tmpc's code; the entry says whether
+    every mesh was found (``strict_meshes`` then needs no parse either). An entry whose meshes
+    are no longer there, or that cannot be read, is parsed again; errors come from the parse."""
     path = find_file(str(ref), Path(base))
-    if path is None:                      # the parser says what was looked for
-        return load_urdf(ref, base, strict_meshes)
-    path = path.resolve()
     try:
-        data = path.read_bytes()
+        data = path.resolve().read_bytes() if path is not None else None
     except OSError:
+        data = None
+    if data is None:                      # the parser says what is wrong
         return load_urdf(ref, base, strict_meshes)
-    h = hashlib.sha256(json.dumps([str(path), strict_meshes, code_digest(),
+    h = hashlib.sha256(json.dumps([str(path.resolve()), code_digest(),
                                    os.environ.get("TMPC_MESH_PATH", ""),
                                    os.environ.get("ROS_PACKAGE_PATH", ""),
                                    str(example_robot_data_dir())]).encode())
     h.update(hashlib.sha256(data).digest())
     entry = cache_root() / "robots" / f"{h.hexdigest()[:32]}.json"
     try:
-        tree = tree_from_data(json.loads(entry.read_text("utf-8")))
+        got = json.loads(entry.read_text("utf-8"))
+        tree, complete = tree_from_data(got["tree"]), got["complete"] is True
         if all(g.shape.mesh is None or Path(g.shape.mesh).is_file()
                for lk in tree.links for g in lk.collision):
-            return tree
+            return load_urdf(ref, base, True) if strict_meshes and not complete else tree
     except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError):
         pass
-    tree = load_urdf(ref, base, strict_meshes)
+    try:
+        tree, complete = load_urdf(ref, base, True), True
+    except SceneError:
+        if strict_meshes:
+            raise
+        tree, complete = load_urdf(ref, base, False), False     # raises if not about meshes
     try:
         entry.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(entry, json.dumps(tree_to_data(tree)))
+        atomic_write_text(entry, json.dumps({"tree": tree_to_data(tree), "complete": complete}))
     except OSError:
         pass                              # a read-only cache is fine: just slower
     return tree

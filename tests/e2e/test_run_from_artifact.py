@@ -24,6 +24,10 @@ class _NoLowering:
         raise AssertionError("IR lowering was called")
 
 
+def _no_urdf_parse(*a, **k):
+    raise AssertionError("a URDF was parsed")
+
+
 def _forbid_lowering(monkeypatch):
     import tmpc.compiler.compile as c
     monkeypatch.setattr(c, "Lowerer", _NoLowering)
@@ -90,6 +94,9 @@ def test_a_run_from_the_cache_compiles_nothing(cache_dir, monkeypatch, tmp_path)
     world, split = open_input(src / "tabletop.toml")
     assert split["kernels"] == "compiled"
     _forbid_lowering(monkeypatch)
+    # nor is the URDF parsed again (the cache keeps the tree; yourdfpy is not even imported)
+    import tmpc.compiler.cache as cache
+    monkeypatch.setattr(cache, "load_urdf", _no_urdf_parse)
     world, split = open_input(src / "tabletop.toml")
     assert split["kernels"] == "cache"
     # the run's batch sizes are exported concretely (no symbolic-shape refinement when loaded)
