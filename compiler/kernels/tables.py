@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tmpc.compiler.meshes import mesh_arrays
 from tmpc.compiler.robot import RobotModel
 from tmpc.lang.world import Scene
 
@@ -50,10 +51,8 @@ def _extent(shape) -> tuple[float, float, float]:
     if shape.kind == "cylinder":
         return (shape.radius, shape.radius, shape.length / 2)
     if shape.mesh is not None and shape.mesh.is_file():
-        import trimesh
-        mesh = trimesh.load(str(shape.mesh), force="mesh")
-        lo, hi = np.asarray(mesh.bounds)
-        return tuple(float(v) for v in (hi - lo) / 2 * np.asarray(shape.scale))
+        v = mesh_arrays(shape.mesh, shape.scale, "a scene object")["vertices"]
+        return tuple(float(x) for x in (v.max(0) - v.min(0)) / 2)
     return (0.0, 0.0, 0.0)
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from tmpc.compiler.meshes import mesh_arrays
 from tmpc.lang.diagnostics import SceneError, error
 from tmpc.lang.world import KinematicTree, Shape
-from tmpc.runtime.collision.store import mesh_arrays
 
 
 @dataclass(frozen=True)
@@ -33,33 +33,9 @@ def load_mesh(path: Path, scale=(1.0, 1.0, 1.0), owner: str = "") -> MeshData:
     trimesh. Raises E565 when it cannot be read."""
     key = (str(path), tuple(float(s) for s in scale))
     if key not in _MESHES:
-        try:
-            a = mesh_arrays(path, key[1], lambda: _read_mesh(path, key[1], owner))
-        except OSError as exc:
-            raise _unreadable(path, owner, exc) from None
+        a = mesh_arrays(path, key[1], owner)
         _MESHES[key] = MeshData(a["vertices"], a["faces"], a["hull_vertices"], a["hull_faces"])
     return _MESHES[key]
-
-
-def _read_mesh(path: Path, scale, owner: str) -> dict[str, np.ndarray]:
-    import trimesh
-    try:
-        mesh = trimesh.load(str(path), force="mesh")
-        ok = len(mesh.faces) > 0
-    except Exception as exc:  # trimesh raises many kinds for unreadable files
-        ok, mesh = False, exc
-    if not ok:
-        raise _unreadable(path, owner, mesh if isinstance(mesh, Exception) else "no triangles")
-    v = np.asarray(mesh.vertices, float) * np.asarray(scale)
-    hull = trimesh.Trimesh(v, np.asarray(mesh.faces), process=False).convex_hull
-    return {"vertices": v, "faces": np.asarray(mesh.faces, np.int64),
-            "hull_vertices": np.asarray(hull.vertices, float),
-            "hull_faces": np.asarray(hull.faces, np.int64)}
-
-
-def _unreadable(path: Path, owner: str, why) -> SceneError:
-    return SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
-                            f"be loaded ({why})", None, "use an STL/OBJ/PLY file with triangles"))
 
 
 @dataclass(eq=False)

@@ -63,27 +63,6 @@ class FirstPassStore:
             pass
 
 
-def mesh_arrays(path: Path, scale, load) -> dict[str, np.ndarray]:
-    """``load()``'s arrays for a mesh file at ``scale``, kept in
-    ``<cache>/collision/mesh-<key>.npz`` by the file's contents (a warm run imports no mesh
-    loader); ``load`` is called, and its result stored, when the entry is missing or damaged."""
-    h = hashlib.sha256(Path(path).read_bytes())
-    h.update(repr((tuple(float(v) for v in scale), code_digest())).encode())
-    file = cache_root() / "collision" / f"mesh-{h.hexdigest()[:24]}.npz"
-    arrays = _read(file)
-    if arrays:
-        return arrays
-    arrays = load()
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    try:
-        file.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(file, buf.getvalue())
-    except OSError:
-        pass
-    return arrays
-
-
 def _read(path: Path) -> dict[str, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as data:

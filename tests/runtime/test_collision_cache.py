@@ -1,4 +1,4 @@
-"""Collision meshes kept in the user cache as arrays (tmpc.runtime.collision.store.mesh_arrays):
+"""Collision meshes kept in the user cache as arrays (tmpc.compiler.meshes, through tmpc.runtime.collision.geometry):
 read back equal without the mesh loader, rebuilt when damaged, keyed by the file's contents."""
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ def _write_cube(path: Path) -> None:
 
 
 def test_mesh_arrays_are_read_back_without_the_loader(tmp_path, monkeypatch):
+    from tmpc.compiler import meshes
     from tmpc.runtime.collision import geometry
     monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(geometry, "_MESHES", {})
@@ -30,7 +31,7 @@ def test_mesh_arrays_are_read_back_without_the_loader(tmp_path, monkeypatch):
     assert np.ptp(first.vertices, axis=0) == pytest.approx([0.2, 0.1, 0.1])
     assert len(first.hull_faces) == 12
     monkeypatch.setattr(geometry, "_MESHES", {})
-    monkeypatch.setattr(geometry, "_read_mesh", _no_load)
+    monkeypatch.setattr(meshes, "_read_mesh", _no_load)
     again = geometry.load_mesh(mesh, (2.0, 1.0, 1.0), "cube")
     for name in ("vertices", "faces", "hull_vertices", "hull_faces"):
         assert np.array_equal(getattr(again, name), getattr(first, name))

@@ -1,0 +1,75 @@
+"""Mesh files as arrays (scaled vertices, faces and their convex hull), kept in the user cache.
+
+Loading a mesh needs trimesh, whose import alone costs ~0.5 s (it brings scipy); the arrays of a
+mesh loaded once are read back from ``<cache>/collision/mesh-<key>.npz``, keyed by the file's
+contents, the scale and tmpc's code, with ``allow_pickle=False``; written atomically. A file
+that cannot be read is rebuilt: the data is always recomputable.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from tmpc.compiler.cache import cache_root, code_digest
+from tmpc.lang.diagnostics import SceneError, error
+from tmpc.lang.fileio import atomic_write_bytes
+
+FIELDS = ("vertices", "faces", "hull_vertices", "hull_faces")
+
+
+def mesh_arrays(path: Path, scale=(1.0, 1.0, 1.0), owner: str = "") -> dict[str, np.ndarray]:
+    """The arrays of the mesh file ``path`` at ``scale`` (:data:`FIELDS`). Raises E565 when it
+    cannot be read."""
+    scale = tuple(float(v) for v in scale)
+    try:
+        h = hashlib.sha256(Path(path).read_bytes())
+    except OSError as exc:
+        raise _unreadable(path, owner, exc.strerror or exc) from None
+    h.update(repr((scale, code_digest())).encode())
+    file = cache_root() / "collision" / f"mesh-{h.hexdigest()[:24]}.npz"
+    try:
+        with np.load(file, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in FIELDS}
+        return arrays
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
+        pass
+    arrays = _read_mesh(path, scale, owner)
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    try:
+        file.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(file, buf.getvalue())
+    except OSError:
+        pass                              # a read-only cache is fine: just slower
+    return arrays
+
+
+def _read_mesh(path: Path, scale, owner: str) -> dict[str, np.ndarray]:
+    import trimesh
+    try:
+        mesh = trimesh.load(str(path), force="mesh")
+        ok = len(mesh.faces) > 0
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        ok, mesh = False, exc
+    if not ok:
+        raise _unreadable(path, owner, mesh if isinstance(mesh, Exception) else "no triangles")
+    v = np.asarray(mesh.vertices, float) * np.asarray(scale)
+    hull = trimesh.Trimesh(v, np.asarray(mesh.faces), process=False).convex_hull
+    return {"vertices": v, "faces": np.asarray(mesh.faces, np.int64),
+            "hull_vertices": np.asarray(hull.vertices, float),
+            "hull_faces": np.asarray(hull.faces, np.int64)}
+
+
+def _unreadable(path: Path, owner: str, why) -> SceneError:
+    return SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
+                            f"be loaded ({why})", None, "use an STL/OBJ/PLY file with triangles"))
+
+
+def _unreadable(path, owner: str, why) -> SceneError:
+    return SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
+                            f"be loaded ({why})", None, "use an STL/OBJ/PLY file with triangles"))
