@@ -33,7 +33,7 @@ from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import GroundingError, ground
 from tmpc.compiler.kernels import Options
 from tmpc.compiler.smt import smtlib_templates
-from tmpc.lang.diagnostics import InputError
+from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.lang.inputs import load_world
 from tmpc.lang.world import find_file, find_srdf
@@ -190,13 +190,18 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
         "lua_predicates": lua,
         "smt": smt,
         "members": {name: digest(data) for name, data in sorted(members.files.items())},
+        "sizes": {name: len(data) for name, data in sorted(members.files.items())},
     }
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
         _write(z, MAGIC_MEMBER, json.dumps(manifest, indent=1).encode())
         for name, data in sorted(members.files.items()):
             _write(z, name, data)
-    atomic_write_bytes(out, buf.getvalue())
+    try:
+        atomic_write_bytes(out, buf.getvalue())
+    except OSError as exc:
+        raise InputError(error("E592", f"cannot write {out}: {exc.strerror or exc}", None,
+                               "give -o a path in an existing, writable folder")) from None
     return manifest
 
 

@@ -44,6 +44,8 @@ _TABLE = (
     Code("E002", ERROR, "unexpected `)`: one too many (found by indentation) or with no `(` at "
                         "all"),
     Code("E003", ERROR, "unterminated string"),
+    Code("E004", ERROR, "parentheses nested deeper than the limit (100 levels): the file is not "
+                        "read further"),
     Code("E010", ERROR, "a file cannot be read (missing, a directory, no permission)"),
     Code("E011", ERROR, "a file is not UTF-8 text"),
 
@@ -290,6 +292,8 @@ _TABLE = (
                         "scene object nor a robot frame"),
     Code("E590", ERROR, "not a usable artifact: not a zip, no manifest, another format version, a "
                         "missing, damaged or modified member"),
+    Code("E592", ERROR, "`tmpc compile -o`: an artifact path that cannot be written (a directory, "
+                        "no such directory, no permission)"),
     Code("E591", ERROR, "`tmpc eval --predicate` / `tmpc sample`: an argument whose type does not "
                         "fit the parameter"),
 

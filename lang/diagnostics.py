@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 from enum import Enum
@@ -154,11 +155,39 @@ def _location(diag: Diagnostic, files: Mapping[str, SourceFile]) -> str:
     return f"{diag.span.path}:{line}:{col}: "
 
 
+#: the widest source excerpt a snippet shows (a long line is cut around the caret)
+SNIPPET_WIDTH = 120
+#: the longest message shown (a message echoing a huge name is cut in the middle)
+MESSAGE_WIDTH = 400
+#: control characters and bidirectional overrides, shown as U+FFFD (one column: carets align)
+_UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
+                          "\u2066-\u2069]")
+
+
+def printable(text: str) -> str:
+    """``text`` with control characters (NUL, ESC, ...) and bidirectional overrides replaced:
+    a diagnostic never moves the terminal's cursor, colours it or reorders what follows."""
+    return _UNPRINTABLE.sub("\ufffd", text)
+
+
+def _clip(text: str, width: int = MESSAGE_WIDTH) -> str:
+    if len(text) <= width:
+        return text
+    half = (width - 5) // 2
+    return f"{text[:half]} ... {text[-half:]}"
+
+
 def _snippet(span: Span, src: SourceFile, label: str, color: bool, mark: str) -> list[str]:
     line, col = src.line_col(span.start)
     end_line, end_col = src.line_col(max(span.start, span.end - 1))
-    text = src.line_text(line).replace("\t", " ")
+    text = printable(src.line_text(line).replace("\t", " "))
     width = max(1, (end_col - col + 1) if end_line == line else len(text) - col + 1)
+    if len(text) > SNIPPET_WIDTH:      # a window around the caret, marked as cut on each side
+        start = max(0, min(col - 1 - SNIPPET_WIDTH // 3, len(text) - SNIPPET_WIDTH))
+        cut = text[start:start + SNIPPET_WIDTH]
+        text = ("..." if start else "") + cut + ("..." if start + SNIPPET_WIDTH < len(text) else "")
+        col = col - start + (3 if start else 0)
+        width = max(1, min(width, SNIPPET_WIDTH - (col - 1) + (3 if start else 0)))
     gutter = " " * len(str(line))
     b, r = (_BLUE, _RESET) if color else ("", "")
     caret = " " * (col - 1) + mark * width + (f" {label}" if label else "")
@@ -169,20 +198,20 @@ def render(diag: Diagnostic, files: Mapping[str, SourceFile], color: bool = Fals
     """``PATH:LINE:COL: error[CODE]: message`` then the source line, a caret, hint, related."""
     sev = diag.severity.value
     head = f"{_COLORS[sev]}{sev}[{diag.code}]{_RESET}" if color else f"{sev}[{diag.code}]"
-    lines = [f"{_location(diag, files)}{head}: {diag.message}"]
+    lines = [f"{printable(_location(diag, files))}{head}: {printable(_clip(diag.message))}"]
     src = files.get(diag.span.path) if diag.span else None
     if src is not None and diag.span is not None:
         lines += _snippet(diag.span, src, "", color, "^")
     for rel in diag.related:
         rsrc = files.get(rel.span.path)
         if rsrc is None:
-            lines.append(f"  = note: {rel.label} ({rel.span.path})")
+            lines.append(printable(f"  = note: {_clip(rel.label)} ({rel.span.path})"))
             continue
         rline, rcol = rsrc.line_col(rel.span.start)
-        lines.append(f"  = note: {rel.label} at {rel.span.path}:{rline}:{rcol}")
+        lines.append(printable(f"  = note: {_clip(rel.label)} at {rel.span.path}:{rline}:{rcol}"))
         lines += ["  " + s for s in _snippet(rel.span, rsrc, "", color, "-")]
     if diag.hint:
-        lines.append(f"  = help: {diag.hint}")
+        lines.append(f"  = help: {printable(_clip(diag.hint))}")
     return "\n".join(lines)
 
 
@@ -201,7 +230,7 @@ def to_json(diag: Diagnostic, files: Mapping[str, SourceFile]) -> dict:
     return {
         "code": diag.code,
         "severity": diag.severity.value,
-        "message": diag.message,
+        "message": _clip(diag.message),
         "span": _json_span(diag.span, files),
         "hint": diag.hint,
         "related": [{"label": r.label, "span": _json_span(r.span, files)} for r in diag.related],

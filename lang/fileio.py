@@ -34,5 +34,19 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         raise
 
 
+def unwritable(path: str | Path) -> str | None:
+    """Why a file could not be written at ``path`` (a directory, no such directory, a directory
+    without write permission), or None: checked before work whose result would be lost."""
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    if p.is_dir():
+        return "it is a directory"
+    if not parent.is_dir():
+        return f"no such directory {parent}"
+    if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        return f"{'it' if p.exists() else f'the directory {parent}'} is not writable"
+    return None
+
+
 def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))

@@ -14,6 +14,7 @@ as a related location, so a file yields all its errors and a usable partial tree
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -141,9 +142,45 @@ def _lex(text: str) -> tuple[list[Token], list[Token]]:
     return tokens, comments
 
 
+#: the deepest nesting of parentheses a file may have (E004 beyond it): the later stages recurse
+#: per level, and real domains stay under 20
+MAX_DEPTH = 100
+_BRACKETS = re.compile(r'\\.|[()";\n]')
+
+
+def _too_deep(text: str) -> int | None:
+    """The offset of the first ``(`` nested deeper than :data:`MAX_DEPTH` (comments and strings
+    skipped), or None."""
+    depth, in_comment, in_string = 0, False, False
+    for m in _BRACKETS.finditer(text):
+        c = m.group()
+        if in_comment:
+            in_comment = c != "\n"
+        elif in_string:
+            in_string = c not in ('"', "\n")
+        elif c == ";":
+            in_comment = True
+        elif c == '"':
+            in_string = True
+        else:
+            c = c[-1]
+            if c == "(":
+                depth += 1
+                if depth > MAX_DEPTH:
+                    return m.end() - 1
+            elif c == ")":
+                depth = max(0, depth - 1)
+    return None
+
+
 def parse_sexpr(source: SourceFile) -> SexprDoc:
     """Parse a whole file. Never raises for bad input: problems become diagnostics."""
     text, path = source.text, source.path
+    deep = _too_deep(text)
+    if deep is not None:
+        return SexprDoc(source, [], [], [error(
+            "E004", f"parentheses nested deeper than {MAX_DEPTH} levels", Span(path, deep, deep + 1),
+            "split the expression (a helper, or an `and` of flatter parts); every tool stops here")])
     builder = _Builder(path)
     _comment_sink.clear()
     try:

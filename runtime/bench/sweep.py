@@ -40,7 +40,7 @@ import numpy as np
 
 from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, TmpcError, error, render, sort_key, use_color
-from tmpc.lang.fileio import atomic_write_text
+from tmpc.lang.fileio import atomic_write_text, unwritable
 from tmpc.runtime.planners import make_planner
 from tmpc.runtime.plans import action_text, file_digest, plan_document, write_json_atomic
 from tmpc.runtime.problem import PlanningProblem
@@ -63,15 +63,7 @@ class Stop(Exception):
 
 def check_output(path) -> None:
     """An output file must be writable before hours of planning are spent (E830)."""
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    why = None
-    if p.is_dir():
-        why = "it is a directory"
-    elif not parent.is_dir():
-        why = f"no such directory {parent}"
-    elif not os.access(parent, os.W_OK):
-        why = f"the directory {parent} is not writable"
+    why = unwritable(path)
     if why:
         raise InputError(error("E830", f"cannot write {path}: {why}", None))
 

@@ -10,12 +10,17 @@ from pathlib import Path
 from tmpc.compiler.artifact import open_world
 from tmpc.compiler.export import build_artifact
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.lang.fileio import unwritable
 from tmpc.lang.inputs import load_world
 from tmpc.runtime.cli.exits import EXIT_OK
 from tmpc.runtime.problem import register_run_kernels
 
 
 def run_compile(args) -> int:
+    why = unwritable(args.output)
+    if why:
+        raise InputError(error("E592", f"cannot write {args.output}: {why}", None,
+                               "give -o a path in an existing, writable folder"))
     if args.input is None:
         if not (args.domain and args.problem and args.scene):
             raise InputError(error("E585", "give a run configuration, or --domain, --problem "

@@ -9,6 +9,8 @@ plan/sample within limits, 70 internal error (a bug: rerun with --debug and repo
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 import time
 from typing import Callable
@@ -118,9 +120,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--static", action="store_true",
                        help="also run the SAT and relaxation checks: actions that can never "
                        "apply, goals that can never hold (W610-W613; grounds the problem)")
-        p.add_argument("--budget", type=float, default=2.0, metavar="S",
+        p.add_argument("--budget", type=SECONDS, default=2.0, metavar="S",
                        help="time budget of --static per program (default 2 s)")
-        p.add_argument("--geometry-budget", type=float, default=60.0, metavar="S",
+        p.add_argument("--geometry-budget", type=SECONDS, default=60.0, metavar="S",
                        help="time budget of --static's geometric checks per run configuration, "
                        "kernel compilation included (default 60 s)")
     elif name == "eval":
@@ -133,7 +135,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="a geometric predicate and its arguments: truth, distance, gradient")
         p.add_argument("--collisions", action="store_true",
                        help="report validity and every colliding pair")
-        p.add_argument("--tolerance", type=float, default=0.0,
+        p.add_argument("--tolerance", type=LENGTH, default=0.0,
                        help="penetration depth (m) below which contacts are ignored")
         p.add_argument("--json", action="store_true", help="print JSON")
     elif name == "compile":
@@ -150,12 +152,12 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         g = p.add_mutually_exclusive_group(required=True)
         g.add_argument("--predicate", nargs="+", metavar=("NAME", "ARG"))
         g.add_argument("--action", nargs="+", metavar=("NAME", "ARG"))
-        p.add_argument("-n", type=int, default=1, help="how many states (default 1)")
-        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+        p.add_argument("-n", type=POSITIVE_INT, default=1, help="how many states (default 1)")
+        p.add_argument("--seed", type=COUNT, default=0, help="random seed (default 0)")
         p.add_argument("--state", metavar="S.json", help="objects and mode to sample in (state "
                        "JSON); default: the initial state")
-        p.add_argument("--iterations", type=int, default=30, help="projection iterations")
-        p.add_argument("--max-starts", type=int, default=20000, help="give up after this many "
+        p.add_argument("--iterations", type=POSITIVE_INT, default=30, help="projection iterations")
+        p.add_argument("--max-starts", type=POSITIVE_INT, default=20000, help="give up after this many "
                        "start configurations")
         p.add_argument("--allow-collisions", action="store_true",
                        help="accept states in collision")
@@ -164,9 +166,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("problem", metavar="PROBLEM")
         p.add_argument("-o", "--output", metavar="PLAN", help="write the plan here (default: "
                        "stdout)")
-        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try")
-        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try")
-        p.add_argument("--time-limit", type=float, default=300.0, metavar="S",
+        p.add_argument("--min-steps", type=COUNT, default=0, help="first horizon to try")
+        p.add_argument("--max-steps", type=COUNT, default=200, help="last horizon to try")
+        p.add_argument("--time-limit", type=SECONDS, default=300.0, metavar="S",
                        help="give up after S seconds (exit 3)")
         p.add_argument("-v", "--verbose", action="store_true",
                        help="statistics per horizon: clauses, encoding and solve time")
@@ -176,8 +178,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--planner", default="unified", choices=sorted(PLANNERS),
                        help="planner (default: unified): " + "; ".join(
                            f"{k}: {v.summary}" for k, v in sorted(PLANNERS.items())))
-        p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-        p.add_argument("--time-limit", type=float, default=None, metavar="S",
+        p.add_argument("--seed", type=COUNT, default=0, help="random seed (default 0)")
+        p.add_argument("--time-limit", type=SECONDS, default=None, metavar="S",
                        help="stop after S seconds and report the best progress (exit 3); "
                        "default: the configuration's, else 120")
         p.add_argument("-o", "--output", metavar="PLAN.json", help="write the plan JSON here "
@@ -186,7 +188,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--png", metavar="PLAN.png", help="write a snapshot here")
         p.add_argument("--legacy-output", choices=("planet", "tmit-star"),
                        help="write the bare state array of that planner instead of tmpc-plan/1")
-        p.add_argument("--heuristic-bias", type=float, default=None,
+        p.add_argument("--heuristic-bias", type=PROBABILITY, default=None,
                        help="probability of a heuristic sample (planet coin_bias)")
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
@@ -196,9 +198,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "plan was made for")
         p.add_argument("plan", metavar="PLAN.json", help="a tmpc-plan/1 file or a bare planet/"
                        "tmit-star state array")
-        p.add_argument("--resolution", type=float, default=0.05,
+        p.add_argument("--resolution", type=POSITIVE_LENGTH, default=0.05,
                        help="longest joint-space step between motion checks (default 0.05)")
-        p.add_argument("--tolerance", type=float, default=None,
+        p.add_argument("--tolerance", type=LENGTH, default=None,
                        help="penetration depth (m) to ignore (default: the configuration's)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
     elif name == "view":
@@ -206,7 +208,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("plan", metavar="PLAN.json")
         p.add_argument("--html", metavar="OUT.html", help="animated, self-contained page")
         p.add_argument("--png", metavar="OUT.png", help="snapshot")
-        p.add_argument("--state", type=int, default=None, metavar="I",
+        p.add_argument("--state", type=COUNT, default=None, metavar="I",
                        help="which state the PNG shows (default: the last)")
     elif name == "cache":
         p.add_argument("action", choices=("info", "clear"))
@@ -217,9 +219,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "artifacts (one problem each)")
         p.add_argument("--planners", default="unified", help="comma-separated planner names ("
                        + ", ".join(sorted(PLANNERS)) + ")")
-        p.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 per problem "
+        p.add_argument("--seeds", type=POSITIVE_INT, default=10, help="seeds 0..N-1 per problem "
                        "(default 10)")
-        p.add_argument("--time-limit", type=float, default=120.0, metavar="S",
+        p.add_argument("--time-limit", type=SECONDS, default=120.0, metavar="S",
                        help="per run (default 120)")
         p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON")
         p.add_argument("--ompl-log", metavar="RESULTS.log", help="results in OMPL's benchmark "
@@ -240,7 +242,77 @@ def _version() -> str:
         return "unknown"
 
 
+class _PipeGuard:
+    """A standard stream that outlives its reader: once a write finds the pipe closed (``tmpc
+    check ... | head``), later output goes to /dev/null and the command runs on to its own exit
+    status (1 when there were errors), instead of ending early with 0 or a traceback."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.broken = False
+
+    def write(self, text):
+        if not self.broken:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self):
+        if not self.broken:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def _gone(self) -> None:
+        self.broken = True
+        try:        # the interpreter's own flush at exit must not find the closed pipe either
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _number(kind, low: float, low_ok: bool, high: float | None = None):
+    """An argparse type: a finite ``kind`` above ``low`` (or at it, with ``low_ok``) and at
+    most ``high``; anything else is a usage error (exit 2) saying what is wanted."""
+    want = (f"{'>=' if low_ok else '>'} {low:g}" + (f" and <= {high:g}" if high is not None
+                                                     else ""))
+    name = "an integer" if kind is int else "a number"
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {name}") from None
+        if not math.isfinite(v) or v < low or (v == low and not low_ok) or \
+                (high is not None and v > high):
+            raise argparse.ArgumentTypeError(f"{text} must be {name} {want}")
+        return v
+    parse.__name__ = kind.__name__
+    return parse
+
+
+POSITIVE_INT, COUNT = _number(int, 0, False), _number(int, 0, True)
+SECONDS, LENGTH = _number(float, 0, False), _number(float, 0, True)
+PROBABILITY = _number(float, 0, True, 1)
+POSITIVE_LENGTH = _number(float, 0, False)
+
+
 def main(argv: list[str] | None = None) -> int:
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = (s if isinstance(s, _PipeGuard) else _PipeGuard(s) for s in streams)
+    try:
+        return _main(argv)
+    finally:
+        sys.stdout, sys.stderr = streams
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from tmpc.lang.diagnostics import TmpcError

@@ -7,14 +7,25 @@ import sys
 from tmpc.lang.diagnostics import render, render_json, sort_key, use_color
 
 
+#: diagnostics rendered as text before the rest are only counted (JSON lists them all)
+SHOWN = 50
+
+
 def print_diagnostics(diags, files, fmt: str, stream=None) -> None:
+    """Diagnostics as JSON on stdout (every one), or rendered on ``stream`` (stderr): the first
+    :data:`SHOWN` in order, then a count of the rest, so the output stays bounded whatever the
+    input (as compilers do)."""
     stream = stream or sys.stderr
     if fmt == "json":
         sys.stdout.write(render_json(diags, files) + "\n")
         return
     color = use_color(stream)
-    for d in sorted(diags, key=sort_key):
+    ordered = sorted(diags, key=sort_key)
+    for d in ordered[:SHOWN]:
         stream.write(render(d, files, color) + "\n\n")
+    if len(ordered) > SHOWN:
+        stream.write(f"... and {len(ordered) - SHOWN} more ({summary(ordered[SHOWN:])}); "
+                     "`--format json` lists every one\n\n")
 
 
 def summary(diags) -> str:

@@ -119,7 +119,7 @@ def test_bad_artifacts_are_rejected_clearly(artifact, tmp_path):
                 data = data.replace(b"tmpc-artifact/1", b"tmpc-artifact/99")
             zout.writestr(name, data)
     for bad, fragment in [(truncated, "not a tmpc artifact"), (foreign, "not a tmpc artifact"),
-                          (tampered, "does not match its digest"), (future, "artifact format")]:
+                          (tampered, "modified or damaged"), (future, "artifact format")]:
         r = cli("eval", str(bad), "--expr", "(position red_cube)")
         assert r.returncode == 1 and "E590" in r.stderr and fragment in r.stderr, r.stderr
         assert "Traceback" not in r.stderr
@@ -157,3 +157,99 @@ def test_artifact_carries_the_smt_templates(artifact):
         s = z3.SolverFor("QF_FD")
         s.from_string(horizon(n))
         assert s.check() == want
+
+
+def _rezip(src, dst, edit_manifest=None, extra=()):
+    """A copy of an artifact with its manifest edited (``edit_manifest(dict)``) and extra
+    members (name, bytes) added."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "manifest.json" and edit_manifest is not None:
+                m = json.loads(data)
+                edit_manifest(m)
+                data = json.dumps(m).encode()
+            zout.writestr(name, data)
+        for name, data in extra:
+            zout.writestr(name, data)
+    return dst
+
+
+def _e590(fn, *args) -> str:
+    from tmpc.lang.diagnostics import InputError
+    with pytest.raises(InputError) as info:
+        fn(*args)
+    (d,) = info.value.diagnostics
+    assert d.code == "E590", d
+    return d.message
+
+
+def test_a_zip_bomb_is_refused_before_it_is_decompressed(artifact, tmp_path, monkeypatch):
+    """A member larger than the manifest says, or than the hard cap, stops the read at the cap:
+    the 64 MiB of zeros below are never held in memory."""
+    import hashlib
+
+    import tmpc.compiler.artifact as A
+    zeros = bytes(64 << 20)
+    digest = hashlib.sha256(zeros).hexdigest()
+
+    def declare(m, size):
+        m["members"]["blobs/zeros.bin"] = digest
+        if size is not None:
+            m["sizes"]["blobs/zeros.bin"] = size
+    lying = _rezip(artifact, tmp_path / "lying.tmpa", lambda m: declare(m, 1000),
+                   [("blobs/zeros.bin", zeros)])
+    assert "more than the 1000 the manifest records" in _e590(A.read_manifest, lying)
+    monkeypatch.setattr(A, "MAX_MEMBER", 8 << 20)
+    unsized = _rezip(artifact, tmp_path / "unsized.tmpa", lambda m: declare(m, None),
+                     [("blobs/zeros.bin", zeros)])
+    assert f"more than the {8 << 20} a member may have" in _e590(A.read_manifest, unsized)
+    monkeypatch.setattr(A, "MAX_TOTAL", 1 << 10)
+    assert "add up to more than" in _e590(A.read_manifest, artifact)
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda m: m.update(members=7), "`members` is a number"),
+    (lambda m: m.update(members=["src/run.toml"]), "`members` is a list"),
+    (lambda m: m.pop("members"), "`members` is missing"),
+    (lambda m: m.update(members={}), "no member src/run.toml"),
+    (lambda m: m["members"].update({"../evil": "0" * 64}), "not a relative path"),
+    (lambda m: m["members"].update({"src/run.toml": "xyz"}), "not a SHA-256"),
+    (lambda m: m.update(sizes={"src/run.toml": -1}), "`sizes`"),
+    (lambda m: m.update(bank=[]), "`bank` is a list"),
+    (lambda m: m["bank"].update(kernels={"fk": "kernels/none.jaxexport"}), "`bank.kernels`"),
+    (lambda m: m.update(format=3), "artifact format 3"),
+])
+def test_a_malformed_manifest_is_an_e590(artifact, tmp_path, edit, fragment):
+    from tmpc.compiler.artifact import read_manifest
+    bad = _rezip(artifact, tmp_path / "bad.tmpa", edit)
+    assert fragment in _e590(read_manifest, bad)
+
+
+def test_fuzzed_artifacts_give_e590_or_load(artifact, tmp_path, monkeypatch):
+    """Random bit flips and truncations of a real artifact: reading and extracting it either
+    works (the flip hit nothing that matters, e.g. a zip comment) or is an E590; never another
+    exception (zlib errors from flipped bits were internal errors once)."""
+    from tmpc.compiler.artifact import extract
+    from tmpc.lang.diagnostics import InputError
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path / "cache"))
+    data = artifact.read_bytes()
+    rng = np.random.default_rng(5)
+    outcomes = {"ok": 0, "E590": 0}
+    bad = tmp_path / "fuzz.tmpa"
+    for i in range(160):
+        b = bytearray(data)
+        if i % 4 == 3:
+            b = b[:int(rng.integers(0, len(b)))]
+        else:
+            for _ in range(int(rng.integers(1, 4))):
+                k = int(rng.integers(0, len(b)))
+                b[k] ^= 1 << int(rng.integers(0, 8))
+        bad.write_bytes(bytes(b))
+        try:
+            extract(bad)
+            outcomes["ok"] += 1
+        except InputError as exc:
+            assert exc.diagnostics[0].code in ("E590",), exc.diagnostics[0]
+            outcomes["E590"] += 1
+    assert outcomes["E590"] > 100, outcomes

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+
+import pytest
 
 from tests.support import EXAMPLES
 
@@ -31,6 +34,55 @@ def test_check_reports_rustc_style_and_exits_1(tmp_path):
     assert "2 |   (:requirements :stripps)" in r.stderr
     assert "^^^^^^^^" in r.stderr and "did you mean `:strips`?" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_a_failing_check_piped_into_head_keeps_its_exit_status(tmp_path):
+    """The reader closes the pipe after one line (`tmpc check bad.pddl 2>&1 | head -1`): the
+    status is still 1 (errors), not 0, and no traceback or BrokenPipeError is printed."""
+    f = tmp_path / "bad.pddl"
+    f.write_text("(define (domain d)\n  (:requirements :strips)\n  (:predicates (p))\n" +
+                 "".join(f"  (:action a{i} :parameters () :precondition (q{i}) :effect (p))\n"
+                         for i in range(400)) + ")\n")
+    for fmt in ("text", "json"):
+        p = subprocess.Popen([sys.executable, "-m", "tmpc.runtime.cli", "check", str(f),
+                              "--format", fmt], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT)
+        p.stdout.readline()
+        p.stdout.close()                       # the reader is gone
+        assert p.wait(timeout=60) == 1
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["sample", "x.toml", "--predicate", "p", "-n", "0"], "-n: 0 must be an integer > 0"),
+    (["sample", "x.toml", "--predicate", "p", "-n", "-3"], "-n: -3 must be an integer > 0"),
+    (["sample", "x.toml", "--predicate", "p", "--iterations", "two"], "'two' is not an integer"),
+    (["run", "x.toml", "--time-limit", "nan"], "--time-limit: nan must be a number > 0"),
+    (["run", "x.toml", "--seed", "-1"], "--seed: -1 must be an integer >= 0"),
+    (["run", "x.toml", "--heuristic-bias", "7"], "must be a number >= 0 and <= 1"),
+    (["validate", "x.toml", "p.json", "--resolution", "0"], "--resolution: 0 must be"),
+    (["validate", "x.toml", "p.json", "--tolerance", "inf"], "--tolerance: inf must be"),
+    (["bench", "x.toml", "--seeds", "0"], "--seeds: 0 must be an integer > 0"),
+])
+def test_out_of_range_numbers_are_usage_errors(args, fragment):
+    r = run(*args)
+    assert r.returncode == 2 and fragment in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("args, code", [
+    (["compile", str(EXAMPLES / "tabletop" / "tabletop.toml"), "-o", "/nonexistent/x.tmpa"],
+     "E592"),
+    (["run", str(EXAMPLES / "tabletop" / "tabletop.toml"), "-o", "/nonexistent/p.json"], "E828"),
+    (["run", str(EXAMPLES / "tabletop" / "tabletop.toml"), "--html", "/nonexistent/p.html"],
+     "E815"),
+    (["run", str(EXAMPLES / "tabletop" / "tabletop.toml"), "--png", "/"], "E815"),
+])
+def test_unwritable_outputs_are_refused_before_any_work(args, code, tmp_path):
+    """Checked before loading, compiling or planning (each of these exits in well under the
+    seconds a compile takes: no kernel is built), with the path and why."""
+    r = run(*args, env={**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")})
+    assert r.returncode == 1 and f"error[{code}]: cannot write" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "cache" / "runs").exists()
 
 
 def test_check_json_format(tmp_path):
