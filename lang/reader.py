@@ -14,7 +14,7 @@ from tmpc.lang import symbols as K
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, warning
 from tmpc.lang.reader_common import describe, head, is_keyword, is_sym, suggest, sym
 from tmpc.lang.reader_formulas import FormulaReader
-from tmpc.lang.sexpr import SAtom, SExpr, SexprDoc, SList, parse_sexpr
+from tmpc.lang.sexpr import SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile, Span
 
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
@@ -37,7 +37,11 @@ class ParsedFile:
 
 
 def parse_source(source: SourceFile) -> ParsedFile:
-    """Parse one file fully (both levels). Never raises for bad input."""
+    """Parse one file fully (both levels). Never raises for bad input; a file nested deeper
+    than :data:`~tmpc.lang.sexpr.MAX_DEPTH` is one E004 and nothing else."""
+    deep = depth_error(source)
+    if deep is not None:
+        return ParsedFile(source, [], [deep], SexprDoc(source, [], [], [deep]))
     doc = parse_sexpr(source)
     sink = DiagnosticSink(list(doc.diagnostics))
     reader = Reader(sink)

@@ -16,7 +16,7 @@ from tmpc.lang.reader_common import (
     suggest,
     sym,
 )
-from tmpc.lang.sexpr import SAtom, SExpr, SList, parse_sexpr
+from tmpc.lang.sexpr import SAtom, SExpr, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile
 
 
@@ -239,6 +239,9 @@ def parse_expr(text: str) -> tuple[A.Expr, SourceFile]:
     """One expression from a command line (``tmpc eval --expr``), read as in a ``:semantics``
     body; its source is ``<expr>``."""
     src = SourceFile("<expr>", text)
+    deep = depth_error(src)
+    if deep is not None:
+        raise ParseError([deep], {src.path: src})
     doc = parse_sexpr(src)
     sink = DiagnosticSink(list(doc.diagnostics))
     if len(doc.items) != 1 and not sink.has_errors:

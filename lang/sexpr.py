@@ -142,13 +142,13 @@ def _lex(text: str) -> tuple[list[Token], list[Token]]:
     return tokens, comments
 
 
-#: the deepest nesting of parentheses a file may have (E004 beyond it): the later stages recurse
-#: per level, and real domains stay under 20
+#: the deepest nesting of parentheses the reader accepts (E004 beyond it; this level parses any
+#: depth, but the reader, checker and formatter recurse per level; real domains stay under 20)
 MAX_DEPTH = 100
 _BRACKETS = re.compile(r'\\.|[()";\n]')
 
 
-def _too_deep(text: str) -> int | None:
+def too_deep(text: str) -> int | None:
     """The offset of the first ``(`` nested deeper than :data:`MAX_DEPTH` (comments and strings
     skipped), or None."""
     depth, in_comment, in_string = 0, False, False
@@ -173,14 +173,19 @@ def _too_deep(text: str) -> int | None:
     return None
 
 
+def depth_error(source: SourceFile) -> Diagnostic | None:
+    """E004 at the first ``(`` nested deeper than :data:`MAX_DEPTH`, or None."""
+    deep = too_deep(source.text)
+    if deep is None:
+        return None
+    return error("E004", f"parentheses nested deeper than {MAX_DEPTH} levels",
+                 Span(source.path, deep, deep + 1),
+                 "split the expression (a helper, or an `and` of flatter parts)")
+
+
 def parse_sexpr(source: SourceFile) -> SexprDoc:
     """Parse a whole file. Never raises for bad input: problems become diagnostics."""
     text, path = source.text, source.path
-    deep = _too_deep(text)
-    if deep is not None:
-        return SexprDoc(source, [], [], [error(
-            "E004", f"parentheses nested deeper than {MAX_DEPTH} levels", Span(path, deep, deep + 1),
-            "split the expression (a helper, or an `and` of flatter parts); every tool stops here")])
     builder = _Builder(path)
     _comment_sink.clear()
     try:

@@ -85,6 +85,56 @@ def test_unwritable_outputs_are_refused_before_any_work(args, code, tmp_path):
     assert "Traceback" not in r.stderr and not (tmp_path / "cache" / "runs").exists()
 
 
+def _nested_and(depth: int) -> str:
+    return ("(define (domain d) (:requirements :strips) (:predicates (p))\n"
+            "  (:action a :parameters () :precondition " + "(and " * depth + "(p)" +
+            ")" * depth + " :effect (p)))\n")
+
+
+def test_deep_nesting_is_handled_up_to_the_limit_and_refused_beyond(tmp_path):
+    ok, deep = tmp_path / "ok.pddl", tmp_path / "deep.pddl"
+    ok.write_text(_nested_and(95))
+    deep.write_text(_nested_and(330))
+    for cmd in (["check"], ["fmt", "--check"]):
+        r = run(*cmd, str(ok))
+        assert r.returncode in (0, 1) and "Traceback" not in r.stderr, r.stderr
+        assert "error" not in r.stderr, r.stderr
+        r = run(*cmd, str(deep))
+        assert r.returncode == 1 and "error[E004]: parentheses nested deeper than 100" in \
+            r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert run("fmt", str(ok)).returncode == 0
+
+
+def test_diagnostics_output_is_bounded(tmp_path):
+    """150,000 unclosed `(` on one line: one diagnostic, a snippet cut around the caret (not
+    the 150 KB line); thousands of errors: the first 50 rendered, the rest counted; control
+    characters in names are not echoed raw."""
+    f = tmp_path / "parens.pddl"
+    f.write_text("(define (domain d) " + "(" * 150_000)
+    r = run("check", str(f))
+    assert r.returncode == 1 and len(r.stderr) < 2000, len(r.stderr)
+    wide = tmp_path / "wide.pddl"
+    wide.write_text("(define (domain d) (:requirements :strips) (:predicates " +
+                    "".join(f"(p{i}) " for i in range(20_000)) + ") (:action a :effect (q)))")
+    r = run("check", str(wide))
+    assert r.returncode == 1 and "error[E200]" in r.stderr and len(r.stderr) < 1500, r.stderr
+    assert "| ..." in r.stderr and "(p19999) ) (:action a :effect (q)))" in r.stderr
+    many = tmp_path / "many.pddl"
+    many.write_text("(define (domain d) (:requirements :strips) (:predicates (p))\n" + "".join(
+        f"  (:action a{i} :parameters () :precondition (q{i}) :effect (p))\n"
+        for i in range(300)) + ")\n")
+    r = run("check", str(many))
+    assert r.returncode == 1 and r.stderr.count("error[E") == 50
+    assert "... and 250 more (250 errors)" in r.stderr
+    assert len(json.loads(run("check", "--format", "json", str(many)).stdout)) == 300
+    evil = tmp_path / "evil.pddl"
+    evil.write_text("(define (domain d) (:requirements :strips) (:predicates (p))\n"
+                    "  (:action a :parameters () :precondition (q\x1b[31m\u202e) :effect (p)))\n")
+    r = run("check", str(evil))
+    assert r.returncode == 1 and "\x1b" not in r.stderr and "\u202e" not in r.stderr
+    assert "\ufffd" in r.stderr
+
+
 def test_check_json_format(tmp_path):
     f = tmp_path / "bad.pddl"
     f.write_text("(define (domain d) (:predicates (p))\n  (:action a :effect (q)))\n")
