@@ -4,3 +4,4 @@ Importing it stays cheap: each command module imports its heavy dependencies whe
 """
 
 from tmpc.runtime.cli.main import main as main
+from tmpc.runtime.cli.main import run_and_exit as run_and_exit

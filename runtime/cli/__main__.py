@@ -1,7 +1,5 @@
 """`python -m tmpc.runtime.cli ...` is `tmpc ...`."""
 
-import sys
+from tmpc.runtime.cli.main import run_and_exit
 
-from tmpc.runtime.cli.main import main
-
-sys.exit(main())
+run_and_exit()

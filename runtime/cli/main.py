@@ -166,9 +166,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("problem", metavar="PROBLEM")
         p.add_argument("-o", "--output", metavar="PLAN", help="write the plan here (default: "
                        "stdout)")
-        p.add_argument("--min-steps", type=COUNT, default=0, help="first horizon to try")
-        p.add_argument("--max-steps", type=COUNT, default=200, help="last horizon to try")
-        p.add_argument("--time-limit", type=SECONDS, default=300.0, metavar="S",
+        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try")
+        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try")
+        p.add_argument("--time-limit", type=float, default=300.0, metavar="S",
                        help="give up after S seconds (exit 3)")
         p.add_argument("-v", "--verbose", action="store_true",
                        help="statistics per horizon: clauses, encoding and solve time")
@@ -198,9 +198,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "plan was made for")
         p.add_argument("plan", metavar="PLAN.json", help="a tmpc-plan/1 file or a bare planet/"
                        "tmit-star state array")
-        p.add_argument("--resolution", type=POSITIVE_LENGTH, default=0.05,
+        p.add_argument("--resolution", type=float, default=0.05,
                        help="longest joint-space step between motion checks (default 0.05)")
-        p.add_argument("--tolerance", type=LENGTH, default=None,
+        p.add_argument("--tolerance", type=float, default=None,
                        help="penetration depth (m) to ignore (default: the configuration's)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
     elif name == "view":
@@ -213,7 +213,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
     elif name == "cache":
         p.add_argument("action", choices=("info", "clear"))
         p.add_argument("parts", nargs="*", metavar="PART",
-                       help="runs, artifacts, exports, jax (default: all)")
+                       help="runs, artifacts, exports, collision, robots, jax (default: all)")
     elif name == "bench":
         p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
                        "artifacts (one problem each)")
@@ -278,7 +278,8 @@ class _PipeGuard:
 
 
 def _number(kind, low: float, low_ok: bool, high: float | None = None):
-    """An argparse type: a finite ``kind`` above ``low`` (or at it, with ``low_ok``) and at
+    """(Options a command checks itself with a code of its own, `plan`'s limits (E610) and
+    `validate`'s resolution and tolerance (E813), keep their plain types.) An argparse type: a finite ``kind`` above ``low`` (or at it, with ``low_ok``) and at
     most ``high``; anything else is a usage error (exit 2) saying what is wanted."""
     want = (f"{'>=' if low_ok else '>'} {low:g}" + (f" and <= {high:g}" if high is not None
                                                      else ""))
@@ -300,7 +301,23 @@ def _number(kind, low: float, low_ok: bool, high: float | None = None):
 POSITIVE_INT, COUNT = _number(int, 0, False), _number(int, 0, True)
 SECONDS, LENGTH = _number(float, 0, False), _number(float, 0, True)
 PROBABILITY = _number(float, 0, True, 1)
-POSITIVE_LENGTH = _number(float, 0, False)
+
+
+def run_and_exit(argv: list[str] | None = None):
+    """The console entry (``tmpc``, ``python -m tmpc.runtime.cli``): :func:`main`, then exit.
+    After a command that imported JAX, the interpreter's teardown (XLA's clients, executables
+    and thread pools) costs 0.3-0.5 s of a process that is done, so the process ends at once,
+    its output flushed (every file tmpc writes is complete before then: atomic writes). Under
+    a tracer or profiler (coverage, cProfile) the usual exit runs."""
+    code = main(argv)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    if "jax" in sys.modules and sys.gettrace() is None and sys.getprofile() is None:
+        os._exit(code)
+    sys.exit(code)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -59,8 +59,6 @@ def test_a_failing_check_piped_into_head_keeps_its_exit_status(tmp_path):
     (["run", "x.toml", "--time-limit", "nan"], "--time-limit: nan must be a number > 0"),
     (["run", "x.toml", "--seed", "-1"], "--seed: -1 must be an integer >= 0"),
     (["run", "x.toml", "--heuristic-bias", "7"], "must be a number >= 0 and <= 1"),
-    (["validate", "x.toml", "p.json", "--resolution", "0"], "--resolution: 0 must be"),
-    (["validate", "x.toml", "p.json", "--tolerance", "inf"], "--tolerance: inf must be"),
     (["bench", "x.toml", "--seeds", "0"], "--seeds: 0 must be an integer > 0"),
 ])
 def test_out_of_range_numbers_are_usage_errors(args, fragment):
@@ -133,6 +131,18 @@ def test_diagnostics_output_is_bounded(tmp_path):
     r = run("check", str(evil))
     assert r.returncode == 1 and "\x1b" not in r.stderr and "\u202e" not in r.stderr
     assert "\ufffd" in r.stderr
+
+
+def test_a_file_that_is_not_utf8_is_pointed_at(tmp_path):
+    f = tmp_path / "bad.pddl"
+    f.write_bytes(b"(define (domain d)\n  (:predicates (p))\n  ;; caf\xe9\n)\n")
+    r = run("check", str(f))
+    assert r.returncode == 1 and f"{f}:3:9: error[E011]: {f} is not UTF-8 text (byte 47: " \
+        "0xe9)" in r.stderr, r.stderr
+    scene = tmp_path / "scene.json"
+    scene.write_bytes(b'{"format": "tmpc-scene/1",\n "name": "\xff"}\n')
+    r = run("check", str(scene))
+    assert r.returncode == 1 and f"{scene}:2:11: error[E011]" in r.stderr, r.stderr
 
 
 def test_check_json_format(tmp_path):
