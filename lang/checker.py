@@ -7,6 +7,8 @@ It resolves every name, checks PDDL typing and arity, the kind rules of the tmpc
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 from tmpc.lang import ast as A
@@ -404,6 +406,12 @@ class Checker:
             self.uses.mark("costs" if is_cost else "numeric", e.span)
             self.check_num(e.target, env, used)
             self.check_num(e.value, env, used)
+            if is_cost and isinstance(e.value, A.Num) and not (
+                    math.isfinite(e.value.value) and (e.value.value >= 0 or e.op != "increase")):
+                self.sink.add(error("E406", f"action cost `{e.value.text}`: costs are finite and "
+                                    "not negative", e.value.span,
+                                    "an optimal planner's bound needs costs >= 0; use 0 for free "
+                                    "actions"))
 
     def check_effect_kind(self, decl: A.PredicateDecl, e) -> None:
         if decl.name.key in self.scope.derived:

@@ -109,6 +109,7 @@ _TABLE = (
                         "linking an object to itself"),
     Code("E404", ERROR, "a geometric predicate in `:init`"),
     Code("E405", ERROR, "an effect on a derived predicate"),
+    Code("E406", ERROR, "an action cost that is negative or not finite (`1e400` reads as infinity)"),
 
     # Grounding
     Code("E600", ERROR, "an action or derived rule with too many parameter bindings (objects per "
@@ -217,8 +218,8 @@ _TABLE = (
                         "without case"),
     Code("E511", ERROR, "an empty interval: bounds, support region or `sssp` with low above high; "
                         "`min_steps` above `max_steps`"),
-    Code("E512", ERROR, "a negative size (radius, length, half-extent, scale) or a negative/zero "
-                        "parameter that must be positive"),
+    Code("E512", ERROR, "a negative size (radius, length, half-extent, scale), a negative, zero or "
+                        "non-finite parameter that must be positive, or a probability above 1"),
     Code("E513", ERROR, "an unknown parent, a parent loop, or an allowed-collision pair naming "
                         "nothing in the scene"),
     Code("E514", ERROR, "a mesh file that cannot be found (with strict meshes; the hint lists "
@@ -244,6 +245,8 @@ _TABLE = (
     Code("W505", WARNING, "a planet scene without `<workspace_bounds>`: derived from the objects' "
                           "and robot's positions plus 2 m"),
     Code("W506", WARNING, "a planet scene with more than one `<robot>`: only the first is used"),
+    Code("W507", WARNING, "a run configuration's `output` that cannot be written (no such folder, "
+                        "no permission): `tmpc run` refuses it before planning"),
 
     # Robots
     Code("E560", ERROR, "a URDF (path or `package://` URI) that cannot be found; the hint lists "

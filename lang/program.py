@@ -51,8 +51,10 @@ class Workspace:
         except IsADirectoryError:
             raise InputError(error("E010", f"{key} is a directory, not a file", None)) from None
         except UnicodeDecodeError as exc:
-            raise InputError(error("E011", f"{key} is not UTF-8 text (byte {exc.start})", None,
-                                   "save the file as UTF-8")) from None
+            span, shown = SourceFile.undecodable(path, exc)
+            raise InputError(error("E011", f"{key} is not UTF-8 text (byte {exc.start}: "
+                                   f"0x{exc.object[exc.start]:02x})", span,
+                                   "save the file as UTF-8"), {key: shown}) from None
         except OSError as exc:
             raise InputError(error("E010", f"cannot read {key}: {exc.strerror}", None)) from None
         return self.add_source(src)

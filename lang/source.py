@@ -50,6 +50,15 @@ class SourceFile:
         text = data.decode("utf-8-sig")
         return cls(str(path), text)
 
+    @classmethod
+    def undecodable(cls, path: str | Path, exc: UnicodeDecodeError) -> tuple["Span", "SourceFile"]:
+        """Where a file that is not UTF-8 first fails to decode, as a span over the file decoded
+        with replacement characters (so E011 can point at line:col)."""
+        data = Path(path).read_bytes()
+        text = data.decode("utf-8-sig", errors="replace")
+        at = len(data[:exc.start].decode("utf-8-sig", errors="replace"))
+        return Span(str(path), at, at + 1), cls(str(path), text)
+
     @property
     def line_count(self) -> int:
         return len(self._line_starts)

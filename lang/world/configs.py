@@ -13,6 +13,7 @@ any of its ancestors, the first that exists (planet and tmit-star ran from their
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import tomllib
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, NoReturn
 
 from tmpc.lang.diagnostics import SceneError, error
+from tmpc.lang.fileio import unwritable
 from tmpc.lang.jsonpos import parse_json
 from tmpc.lang.source import SourceFile, Span
 from tmpc.lang.world.loaders import (
@@ -194,7 +196,12 @@ def _path(r: Reader, span: Span, key: str, raw: Any, legacy: bool, what: str,
 def _output(r: Reader, span: Span, key: str, raw: Any) -> Path:
     if not isinstance(raw, str) or not raw.strip():
         r.fail("E506", span, f"{key}: expected a path string, found {raw!r}")
-    return Path(os.path.normpath(r.directory / os.path.expanduser(raw)))
+    out = Path(os.path.normpath(r.directory / os.path.expanduser(raw)))
+    why = unwritable(out)
+    if why:       # `tmpc run` refuses it before planning (E828); other commands do not write it
+        r.warn("W507", span, f"{key}: `tmpc run` cannot write the plan to {out}: {why}",
+               "create the folder, or give `tmpc run -o` another path")
+    return out
 
 
 def _finish(r: Reader, build: Callable[[], RunConfig]) -> RunConfig:
@@ -253,15 +260,22 @@ def _native(r: TomlReader) -> RunConfig:
 
 
 def _positive(r: Reader, key: str, x: float) -> float:
-    if x <= 0:
-        r.fail("E512", r.span(key), f"{key}: must be positive, found {x:g}")  # type: ignore[attr-defined]
+    if not (x > 0 and math.isfinite(x)):
+        r.fail("E512", r.span(key), f"{key}: must be a positive finite number, found {x:g}")  # type: ignore[attr-defined]
     return x
+
+
+#: parameters with an upper bound (probabilities)
+_AT_MOST = {"coin_bias": 1.0}
 
 
 def _param(r: TomlReader, key: str, value: Any, typ: type) -> object:
     v = r.expect(key, value, typ)
-    if v < 0:
-        r.fail("E512", r.span(key), f"{key}: must not be negative, found {v}")
+    name = key.rpartition(".")[2]
+    high = _AT_MOST.get(name)
+    if not math.isfinite(v) or v < 0 or (high is not None and v > high):
+        want = f"between 0 and {high:g}" if high is not None else "a finite number >= 0"
+        r.fail("E512", r.span(key), f"{key}: must be {want}, found {v}")
     return v
 
 

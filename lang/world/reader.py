@@ -117,8 +117,10 @@ def read_source(path: str | Path, what: str) -> SourceFile:
     except IsADirectoryError:
         raise SceneError(error("E010", f"{key} is a directory, not a {what} file", None)) from None
     except UnicodeDecodeError as exc:
-        raise SceneError(error("E011", f"{key} is not UTF-8 text (byte {exc.start})", None,
-                               f"save the {what} file as UTF-8")) from None
+        span, shown = SourceFile.undecodable(path, exc)
+        raise SceneError(error("E011", f"{key} is not UTF-8 text (byte {exc.start}: "
+                               f"0x{exc.object[exc.start]:02x})", span,
+                               f"save the {what} file as UTF-8"), {key: shown}) from None
     except OSError as exc:
         raise SceneError(error("E010", f"cannot read {what} file {key}: {exc.strerror}",
                                None)) from None

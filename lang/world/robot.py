@@ -8,6 +8,7 @@ in the models installed by the `example-robot-data` package, and beside the URDF
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from dataclasses import dataclass
@@ -150,9 +151,19 @@ def load_urdf(ref: str | Path, base: Path | None = None, strict_meshes: bool = T
     return _load_urdf_cached(str(path.resolve()), strict_meshes)
 
 
+def import_yourdfpy():
+    """yourdfpy (heavy: numpy, trimesh, lxml), its and trimesh's log quieted to errors: their
+    warnings ("joint ... is supposed to mimic ...") were printed once per link and state, in
+    thousands, and say nothing a tmpc diagnostic does not."""
+    import yourdfpy
+    for name in ("yourdfpy", "trimesh"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+    return yourdfpy
+
+
 @lru_cache(maxsize=16)
 def _load_urdf_cached(path: str, strict_meshes: bool) -> KinematicTree:
-    import yourdfpy  # heavy: numpy, trimesh, lxml
+    yourdfpy = import_yourdfpy()
 
     try:
         urdf = yourdfpy.URDF.load(path, build_scene_graph=False, load_meshes=False,

@@ -12,8 +12,10 @@ from __future__ import annotations
 import sys
 import time
 
-from tmpc.lang.diagnostics import InputError, error
+from tmpc.compiler.artifact import is_artifact
+from tmpc.lang.diagnostics import InputError, TmpcError, error
 from tmpc.lang.fileio import unwritable
+from tmpc.lang.world import is_run_config, load_config
 from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
 from tmpc.runtime.solve import open_input, plan_problem
@@ -24,7 +26,8 @@ DEFAULT_TIME_LIMIT = 120.0
 
 def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
-    _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815")])
+    _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815"),
+                    (None if args.output else _configured_output(args.input), "E828")])
     world, opened = open_input(args.input, on_compile=None if args.quiet else _compiling)
     # the command line wins; else the configuration's time limit and output (planet's TOML
     # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
@@ -36,7 +39,6 @@ def run_run(args, imports: float = 0.0) -> int:
     if not time_limit > 0:
         sys.stderr.write("tmpc run: the time limit must be > 0\n")
         return EXIT_USAGE
-    _check_outputs([(output, "E828")])
     progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
     problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit,
                                           planner_overrides(args), progress)
@@ -63,6 +65,16 @@ def run_run(args, imports: float = 0.0) -> int:
     if args.verbose:
         _report_setup(split, result)
     return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
+
+
+def _configured_output(path):
+    """The output a run configuration names (read without loading anything it names), if any."""
+    if is_artifact(path) or not is_run_config(path):
+        return None
+    try:
+        return load_config(path).output
+    except TmpcError:
+        return None           # open_input reports it, in context
 
 
 def _check_outputs(outputs) -> None:

@@ -25,7 +25,7 @@ import numpy as np
 # (pinocchio / yourdfpy), independent of tmpc.compiler.robot.
 from tmpc.compiler.rotations import quat_matrix as quat_matrix
 from tmpc.compiler.rotations import quat_of as quat_of
-from tmpc.lang.world import find_file, load_urdf
+from tmpc.lang.world import find_file, import_yourdfpy, load_urdf
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,7 @@ def urdf_path(scene) -> str:
 
 def read_urdf(path: str | Path) -> RobotDescription:
     """Read a resolved URDF file with yourdfpy; mesh URIs resolved as tmpc resolves them."""
-    import yourdfpy
+    yourdfpy = import_yourdfpy()
     path = Path(path)
     urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
                               build_collision_scene_graph=False, load_collision_meshes=False)
@@ -231,7 +231,7 @@ class Kinematics:
         self._q = pin.neutral(self._model)
 
     def _init_yourdfpy(self) -> None:
-        import yourdfpy
+        yourdfpy = import_yourdfpy()
         self._urdf = yourdfpy.URDF.load(self.desc.path, build_scene_graph=True, load_meshes=False,
                                         build_collision_scene_graph=False,
                                         load_collision_meshes=False)

@@ -177,3 +177,13 @@ def test_unknown_constant_in_domain_alone_is_a_warning_and_an_error_with_a_probl
 def test_unused_parameter_warning():
     rep = check("(define (domain u) (:predicates (p)) (:action a :parameters (?x) :effect (p)))")
     assert rep.ok and codes(rep) == ["W002"]
+
+
+@pytest.mark.parametrize("cost, bad", [("3", False), ("0", False), ("2.5", False), ("-5", True),
+                                       ("1e400", True)])
+def test_action_costs_are_finite_and_not_negative(cost, bad):
+    report = check("(define (domain d) (:requirements :strips :action-costs)\n"
+                   "  (:predicates (p)) (:functions (total-cost) - number)\n"
+                   f"  (:action a :parameters () :precondition (p)\n"
+                   f"   :effect (and (p) (increase (total-cost) {cost}))))\n")
+    assert ("E406" in errors(report)) == bad, codes(report)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -282,6 +283,24 @@ def test_native_manifest_sets_the_collision_tolerance(tmp_path):
     assert default_tolerance(open_world(run, with_program=False)) == 0.015
     run.write_text(run.read_text().replace("0.015", "-1"))
     check_error("E512", run, "-1")
+    # what `check` accepted and `run` rejected: every one an error at its line
+    base = run.read_text().replace("collision_tolerance = -1", "")
+    for line, code, needle in [("collision_tolerance = nan", "E512", "nan"),
+                               ("collision_tolerance = inf", "E512", "inf"),
+                               ("coin_bias = 7", "E512", "7"),
+                               ("time_limit = nan", "E512", "nan")]:
+        run.write_text(base + line + "\n")
+        check_error(code, run, needle)
+    run.write_text(base + 'output = "nowhere/plan.json"\n')
+    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(run)],
+                       capture_output=True, text=True)
+    line, col = pos_of(run.read_text(), '"nowhere/plan.json"')
+    assert f"{run}:{line}:{col}: warning[W507]" in r.stderr, r.stderr
+    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(run)],
+                       capture_output=True, text=True,
+                       env={**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")})
+    assert r.returncode == 1 and "error[E828]: cannot write" in r.stderr, r.stderr
+    assert not (tmp_path / "cache" / "runs").exists()          # refused before compiling
 
 
 def test_check_of_a_run_config_checks_what_it_names(tmp_path):

@@ -45,3 +45,14 @@ def test_tabletop_starts_valid_with_the_hand_over_the_bench(tabletop_world):
     assert collision_world(world, compile_world(world)).check(st.q, poses=st.poses).valid
     tcp = compile_world(world).fk(st.q).p[compile_world(world).model.frame("panda_hand_tcp")]
     assert 0.5 < float(tcp[2]) < 0.7
+
+
+def test_urdf_library_warnings_are_quiet():
+    """yourdfpy warned once per mimic joint and state (2,676 lines for one validate of a
+    tmit-star shelves plan); tmpc's own diagnostics say what matters."""
+    import logging
+
+    from tmpc.lang.world import import_yourdfpy
+    import_yourdfpy()
+    for name in ("yourdfpy.urdf", "trimesh"):
+        assert logging.getLogger(name).getEffectiveLevel() >= logging.ERROR
