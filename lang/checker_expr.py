@@ -252,10 +252,9 @@ class ExprChecker:
         self._active.pop()
         if call is not None and len(self.sink.items) > before:
             # Point at the call too: the helper body is correct for other argument types.
-            self.sink.items[before:] = [
-                error(d.code, d.message, d.span, d.hint,
-                      d.related + (Related(call.span, "in this use of the helper"),))
-                for d in self.sink.items[before:]]
+            self.sink.rewrite_from(before, lambda d: error(
+                d.code, d.message, d.span, d.hint,
+                d.related + (Related(call.span, "in this use of the helper"),)))
         self._helper_results[key] = result
         return result
 

@@ -166,6 +166,8 @@ _TABLE = (
                         "`eval`, `sample`, `validate`, `view`, `compile`); the hint shows the "
                         "manifest and `tmpc plan`"),
     Code("E828", ERROR, "a plan or results file cannot be written (missing folder, no permission)"),
+    Code("E829", ERROR, "a start configuration outside the robot's joint limits (or a mobile base "
+                        "outside the scene bounds)"),
 
     # Benchmarks (`tmpc bench`)
     Code("E830", ERROR, "an output (`-o`, `--ompl-log`) that cannot be written: a directory, no "
@@ -233,6 +235,8 @@ _TABLE = (
                         "`;`)"),
     Code("E519", ERROR, "an unknown native scene format version (this version reads "
                         "`tmpc-scene/1`)"),
+    Code("E520", ERROR, "a position (object, robot base, workspace bound) more than 10 km from "
+                        "the origin: a typo or a unit mix-up"),
     Code("W500", WARNING, "an unknown key or XML element in a legacy file: ignored, as the "
                           "original planner did"),
     Code("W501", WARNING, "a mesh file that cannot be found, loading with strict meshes off: kept "
@@ -322,6 +326,8 @@ _TABLE = (
                         "(domain and problem) the plan was made for"),
     Code("E813", ERROR, "a `--tolerance` that is negative or not finite, or a `--resolution` that "
                         "is not a finite number > 0"),
+    Code("E817", ERROR, "a plan made for another problem: it names joints the robot does not have "
+                        "or objects the scene does not (`validate`, `view`)"),
     Code("E814", ERROR, "`tmpc view --state I` (a PNG snapshot) with no state I in the plan"),
     Code("E815", ERROR, "a viewer output (`--html`, `--png`) that cannot be written (no such "
                         "directory, no permission)"),

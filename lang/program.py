@@ -25,7 +25,14 @@ from tmpc.lang.diagnostics import (
 from tmpc.lang.lua import load_lua_predicates
 from tmpc.lang.reader import ParsedFile, parse_source
 from tmpc.lang.source import SourceFile, Span
-from tmpc.lang.world import LoadReport, is_run_config, load_config, load_scene, load_urdf
+from tmpc.lang.world import (
+    LoadReport,
+    is_run_config,
+    load_allowed_pairs,
+    load_config,
+    load_scene,
+    load_urdf,
+)
 
 STDLIB_PREFIX = "tmpc/"
 MODULE_SUFFIX = ".tmpc"
@@ -213,7 +220,7 @@ def build_programs(ws: Workspace, parsed: list[ParsedFile],
 
 #: Non-PDDL inputs `tmpc check` also reads, by suffix; their loaders are imported on demand
 #: (lupa for Lua, yourdfpy for URDF), so checking PDDL alone stays light.
-WORLD_SUFFIXES = (".lua", ".toml", ".json", ".xml", ".urdf")
+WORLD_SUFFIXES = (".lua", ".toml", ".json", ".xml", ".urdf", ".csv")
 
 
 def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
@@ -225,6 +232,11 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             load_lua_predicates(path)
         elif suffix == ".urdf":
             load_urdf(path.resolve())
+        elif suffix == ".csv":                   # an allowed-collision (blocklist) CSV
+            report = LoadReport()
+            load_allowed_pairs(path, report)
+            ws.files.update(report.files)
+            return list(report.warnings)
         elif is_run_config(path):
             report = LoadReport()
             config = load_config(path, report=report)

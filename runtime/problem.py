@@ -137,7 +137,23 @@ class PlanningProblem:
                 self.world.files)
 
     def check_start(self) -> None:
-        """The start must be collision-free; name the colliding pairs otherwise (E823)."""
+        """The start must be within the joint limits (E829, before any collision check: a
+        joint at 99 rad is not "in collision") and collision-free; name the colliding pairs
+        otherwise (E823)."""
+        # the scene's values as written (the model clamps its start into the limits)
+        raw = dict(self.world.scene.robot.joint_values) if self.world.scene.robot else {}
+        raw.update(zip(self.model.q_names[:3], self.q0[:3]) if self.model.mobile_base else ())
+        out = [(name, float(raw[name]), float(lo), float(hi)) for name, lo, hi, w in
+               zip(self.model.q_names, self.lower, self.upper, self.wraps)
+               if name in raw and not w and not (lo - 1e-9 <= raw[name] <= hi + 1e-9)]
+        if out:
+            name, v, lo, hi = out[0]
+            more = f" (and {len(out) - 1} more)" if len(out) > 1 else ""
+            raise InputError(error("E829", f"the start has `{name}` = {v:g}, outside its limits "
+                                   f"[{lo:g}, {hi:g}]{more}", None,
+                                   f"set it within the limits in {self.world.scene.path} (the "
+                                   "scene's start joint values; a mobile base's x and y stay "
+                                   "within the scene bounds)"))
         rep = self.collision.check(self.q0, poses=self.initial.poses, attached=self.initial.held)
         if not rep.valid:
             pairs = ", ".join(f"{a} with {b} ({d * 1000:.1f} mm)" for a, b, d in rep.pairs[:5])

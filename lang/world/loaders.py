@@ -126,8 +126,37 @@ def load_scene(path: str | Path, fmt: str | None = None, mesh_dir: str | Path | 
     report.files[source.path] = source
     if fmt is None:
         fmt, parsed = detect_scene_format(source, report)
-        return SCENE_LOADERS[fmt](source, opts, report, parsed)
+        return _within_reach(SCENE_LOADERS[fmt](source, opts, report, parsed), report)
     if fmt not in SCENE_LOADERS:
         raise SceneError(error("E503", f"unknown scene format \"{fmt}\"", None, join_hints(
             did_you_mean(fmt, SCENE_LOADERS), "the formats are " + ", ".join(SCENE_LOADERS))))
-    return SCENE_LOADERS[fmt](source, opts, report)
+    return _within_reach(SCENE_LOADERS[fmt](source, opts, report), report)
+
+
+#: metres from the origin beyond which a position is a typo, not a scene (E520)
+FARTHEST = 1e4
+
+
+def _within_reach(scene: Scene, report: LoadReport) -> Scene:
+    """Every object and the robot's base within :data:`FARTHEST` of the origin: an object at
+    x = 1e308 was once accepted, and the planner wandered until its time limit."""
+    placed = [(f"object `{o.name}`", o.pose, o.origin) for o in scene.objects]
+    if scene.robot is not None:
+        placed.append(("the robot's base", scene.robot.base_pose, None))
+    for what, pose, origin in placed:
+        far = max(abs(v) for v in pose.translation)
+        if far > FARTHEST:
+            src = report.files.get(origin.path) if origin is not None else None
+            span = src.span(src.offset(origin.line, origin.column or 1),
+                            src.offset(origin.line, origin.column or 1) + 1) \
+                if src is not None and origin.line else None
+            raise SceneError(error("E520", f"{origin or scene.path}: {what} is {far:g} m from "
+                                   f"the origin (more than {FARTHEST:g} m)", span,
+                                   "positions are in metres; check for a typo or a unit mix-up"),
+                             report.files)
+    for (lo, hi), axis in zip(scene.bounds, "xyz"):
+        if max(abs(lo), abs(hi)) > FARTHEST:
+            raise SceneError(error("E520", f"{scene.path}: the workspace bounds reach {axis} = "
+                                   f"{max(abs(lo), abs(hi)):g} m (more than {FARTHEST:g} m)",
+                                   None, "bounds are in metres"), report.files)
+    return scene

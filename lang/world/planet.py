@@ -76,9 +76,13 @@ class _XmlReader(Reader):
                 self.fail("E506", self.text_span(node), f"{self.label(node)}: \"{p}\" is not a "
                           "number", f"{what} is {' or '.join(map(str, counts))} numbers "
                           "separated by spaces")
-        if len(vals) not in counts or not all(math.isfinite(x) for x in vals):
+        if len(vals) not in counts:
             self.fail("E507", self.text_span(node), f"{self.label(node)}: {what} needs "
                       f"{' or '.join(map(str, counts))} numbers, found {len(vals)}")
+        bad = [p for p, x in zip(parts, vals) if not math.isfinite(x)]
+        if bad:
+            self.fail("E507", self.text_span(node), f"{self.label(node)}: {what} needs finite "
+                      f"numbers, found {bad[0]!r}")
         return vals
 
     def boolean(self, node: XmlNode) -> bool:

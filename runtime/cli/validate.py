@@ -8,7 +8,7 @@ import sys
 
 from tmpc.compiler.artifact import open_world
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_OK
-from tmpc.runtime.plans import file_digest, read_plan
+from tmpc.runtime.plans import check_plan_fits, file_digest, read_plan
 from tmpc.runtime.validate import check_numbers, validate_plan
 
 
@@ -16,6 +16,7 @@ def run_validate(args) -> int:
     check_numbers(args.tolerance, args.resolution)
     plan = read_plan(args.plan)
     world = open_world(args.input)
+    check_plan_fits(world, plan, args.input)
     report = validate_plan(world, plan, args.tolerance, args.resolution)
     made_for = (plan.meta.get("input") or {}).get("digest") if isinstance(
         plan.meta.get("input"), dict) else None

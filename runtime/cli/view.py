@@ -8,7 +8,7 @@ from pathlib import Path
 from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.cli.exits import EXIT_OK, EXIT_USAGE
-from tmpc.runtime.plans import read_plan
+from tmpc.runtime.plans import check_plan_fits, read_plan
 from tmpc.runtime.viewer import write_html, write_png
 
 
@@ -18,6 +18,7 @@ def run_view(args) -> int:
         return EXIT_USAGE
     plan = read_plan(args.plan)
     world = open_world(args.input, with_program=False)
+    check_plan_fits(world, plan, args.input)
     for out in (args.html, args.png):
         if out and not Path(out).resolve().parent.is_dir():
             raise InputError(error("E815", f"cannot write {out}: no such directory", None))

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 # (translation, quaternion xyzw) -> 4x4: numpy's one copy, re-exported by tmpc.runtime.plans
+from tmpc.compiler.cache import robot_tree
 from tmpc.compiler.rotations import transform as pose_matrix
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.jsonpos import parse_json
@@ -71,6 +72,33 @@ class PlanError(InputError):
 
 # ---------------------------------------------------------------------------------------------
 # reading
+
+
+def check_plan_fits(world, plan: Plan, input_path) -> None:
+    """A plan made for another problem is said so first (E817), not as a list of violations or
+    a drawing of the wrong robot: it names joints the robot does not have or objects the scene
+    does not. (A plan whose input file merely changed is only noted by ``validate``.)"""
+    if plan.form != "tmpc-plan/1":
+        return
+    scene = world.scene
+    objects = {o.name.lower() for o in scene.objects}
+    joints: set[str] | None = None
+    if scene.robot is not None:
+        tree = robot_tree(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False)
+        joints = {j.name for j in tree.joints}
+    odd_objects = sorted({n for st in plan.states for n in st.objects if n.lower() not in objects})
+    odd_joints = sorted({n for st in plan.states for n in st.joints
+                         if joints is not None and n not in joints})
+    if not odd_objects and not odd_joints:
+        return
+    made_for = plan.meta.get("input") if isinstance(plan.meta.get("input"), dict) else {}
+    parts = ([f"joints {', '.join(odd_joints[:4])}"] if odd_joints else []) + \
+        ([f"objects {', '.join(odd_objects[:4])}"] if odd_objects else [])
+    raise InputError(error(
+        "E817", f"{plan.path} was made for another problem"
+        + (f" ({made_for.get('path')})" if made_for.get("path") else "")
+        + f": it names {' and '.join(parts)}, which {input_path} does not have", None,
+        "give the run configuration or artifact the plan was made for"))
 
 
 def read_plan(path: str | Path) -> Plan:

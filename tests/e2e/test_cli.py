@@ -229,3 +229,14 @@ def test_check_static_finds_geometry_nothing_can_satisfy(tmp_path):
     assert "warning[W614]: geometric predicate `at`" in r.stderr
     assert "warning[W614]: the geometric precondition of action `pickup`" in r.stderr
     assert "`putdown`" not in r.stderr and "`placed`" not in r.stderr
+
+
+def test_check_reads_an_allowed_collision_csv_as_one(tmp_path):
+    """A blocklist CSV is checked as the CSV it is (it was parsed as PDDL)."""
+    good, bad = tmp_path / "blacklist.csv", tmp_path / "bad.csv"
+    good.write_text("# pairs never checked\ntable1,base_link\n\nstick1, r_gripper_palm_link\n")
+    bad.write_text("table1,base_link\ntable2\n")
+    r = run("check", str(good))
+    assert r.returncode == 0 and "error" not in r.stderr, r.stderr
+    r = run("check", str(bad))
+    assert r.returncode == 1 and f"{bad}:2:1: error[E516]" in r.stderr, r.stderr

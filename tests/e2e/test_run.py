@@ -120,6 +120,17 @@ def test_start_in_collision_names_the_pair(tmp_path):
     assert not (tmp_path / "plan.json").exists()
 
 
+def test_a_start_beyond_the_joint_limits_is_said_so(tmp_path):
+    """Not "in collision" (as it once was): the joint, its value and its limits."""
+    scene = clutter_scene(1)
+    scene["robot"]["joints"]["l_elbow_flex_joint"] = 99.0
+    cfg = _world_dir(tmp_path, scene, clutter_problem(1))
+    r = _tmpc("run", cfg, "-o", tmp_path / "plan.json")
+    assert r.returncode == 1 and "error[E829]: the start has `l_elbow_flex_joint` = 99" in \
+        r.stderr and "E823" not in r.stderr, r.stderr
+    assert not (tmp_path / "plan.json").exists()
+
+
 def test_object_missing_from_scene(tmp_path):
     problem = clutter_problem(1).replace("blue_stick_1 - stick", "blue_stick_1 ghost - stick")
     problem = problem.replace("(on-surface blue_stick_1 table1)",

@@ -157,3 +157,24 @@ def test_the_same_sources_compile_to_the_same_bytes(tmp_path, monkeypatch):
         build_artifact(open_world(TABLETOP / "tabletop.toml"), out)
         outs.append(out.read_bytes())
     assert outs[0] == outs[1]
+
+
+def test_a_warm_run_imports_no_urdf_or_mesh_library(artifact, tmp_path):
+    """Planning from an artifact whose robot and meshes the cache has seen parses no URDF and
+    loads no mesh file: yourdfpy, trimesh and scipy.spatial (~0.7 s of imports) stay out."""
+    import os
+    import subprocess
+    import sys
+    code = ("import sys\n"
+            "from tmpc.compiler.artifact import open_world\n"
+            "from tmpc.runtime.solve import plan_problem\n"
+            f"_, result, _ = plan_problem(open_world({str(artifact)!r}), seed=0, time_limit=60)\n"
+            "assert result.status == 'solved'\n"
+            "print(sorted(m for m in ('yourdfpy', 'trimesh', 'scipy.spatial') "
+            "if m in sys.modules))\n")
+    env = {**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           env=env, timeout=600) for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), runs[-1].stderr
+    assert "yourdfpy" in runs[0].stdout            # the first run parsed the robot
+    assert runs[1].stdout.strip() == "[]", runs[1].stdout

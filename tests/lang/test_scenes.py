@@ -478,6 +478,11 @@ def test_planet_pose_errors(tmp_path):
                                       "-1 0 0 -1.0 0 -1 0 0.5 0 0 2 0.45")
     d = check_error("E509", planet_copy(tmp_path / "b", text), "-1 0 0 -1.0")
     assert "not a rotation" in d.message
+    # a `nan` among twelve numbers: said as such (it once read "needs 12 or 16, found 12")
+    text = PLANET.read_text().replace("-1 0 0 -1.0 0 -1 0 0.5 0 0 1 0.45",
+                                      "-1 0 0 -1.0 0 -1 0 0.5 0 0 1 nan")
+    d = check_error("E507", planet_copy(tmp_path / "n", text), "-1 0 0 -1.0 0 -1 0 0.5 0 0 1 nan")
+    assert "needs finite numbers, found 'nan'" in d.message
     text = PLANET.read_text().replace("-1 0 0 -1.0 0 -1 0 0.5 0 0 1 0.45",
                                       "-1 0 0 -1.0 0 1 0 0.5 0 0 1 0.45")
     d = check_error("E509", planet_copy(tmp_path / "c", text), "-1 0 0 -1.0")
@@ -674,3 +679,14 @@ def test_xml_positions_count_characters_not_bytes(tmp_path):
     text = PLANET.read_text().replace("<problem>", "<!-- café, Größe, 机器人 -->\n<problem>")
     text = text.replace("-1 0 0 -1.0 0 -1 0 0.5 0 0 1 0.45", "-1 0 0 -1.0 0 -1 0 0.5")
     check_error("E507", planet_copy(tmp_path, text), "-1 0 0 -1.0 0 -1 0 0.5")
+
+
+def test_a_position_kilometres_away_is_an_error_at_its_object(tmp_path):
+    """An object at x = 1e308 was accepted, and the planner wandered for its whole time limit."""
+    text = NATIVE.read_text().replace('"translation": [1.0, 0.0, 0.4]',
+                                      '"translation": [1e308, 0.0, 0.4]')
+    p = write_native(tmp_path, text)
+    diag, files = raises("E520", load_scene, p)
+    assert "is 1e+308 m from the origin" in diag.message and p.name in diag.message
+    line, _ = where(diag, files)
+    assert abs(line - pos_of(text, "1e308")[0]) <= 3, diag.message

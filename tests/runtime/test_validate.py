@@ -420,3 +420,17 @@ def test_yourdfpy_kinematics_agree_with_pinocchio(tabletop):
         vals = full_joint_values(tabletop.desc, vals)
         assert np.allclose(tabletop.kin.poses(np.eye(4), vals), other.poses(np.eye(4), vals),
                            atol=1e-9)
+
+
+def test_a_plan_for_another_problem_is_said_so_first(tmp_path):
+    """The tabletop plan against the clutter configuration: one E817 naming what does not fit
+    (it once listed 149 violations; `view` drew the wrong robot without a word)."""
+    from tests.support import CLUTTER
+    r = cli(CLUTTER, PLANS / "tabletop.json")
+    assert r.returncode == 1 and "error[E817]" in r.stderr and "made for another problem" in \
+        r.stderr and "panda_joint1" in r.stderr, r.stderr
+    assert "violation" not in r.stdout
+    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "view", str(CLUTTER),
+                        str(PLANS / "tabletop.json"), "--png", str(tmp_path / "x.png")],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and "error[E817]" in r.stderr and not (tmp_path / "x.png").exists()
