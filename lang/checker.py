@@ -8,7 +8,6 @@ It resolves every name, checks PDDL typing and arity, the kind rules of the tmpc
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 
 from tmpc.lang import ast as A

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from tmpc.lang import ast as A
 from tmpc.lang import symbols as K
-from tmpc.lang.diagnostics import DiagnosticSink, Related, error
+from tmpc.lang.diagnostics import DiagnosticSink, Related, error, warning
 from tmpc.lang.reader_common import suggest
 from tmpc.lang.scope import Scope, type_keys
 
@@ -169,6 +169,13 @@ class ExprChecker:
             args = [self.expr(a, env) for a in e.args]
             if any(a is None for a in args):
                 return None
+            if op == "/":
+                for d in e.args[1:]:
+                    if isinstance(d, A.Num) and d.value == 0:
+                        self.sink.add(warning(
+                            "W301", "division by a constant zero: the value is always +inf, "
+                            "-inf or nan (0/0), in the planner and the validator alike", d.span,
+                            "see docs/language.md (division); a comparison with nan is false"))
             return self.overload(e, K.BUILTINS[op], args)
         helper = self.scope.helper(op)
         if helper is not None:

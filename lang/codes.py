@@ -109,7 +109,8 @@ _TABLE = (
                         "linking an object to itself"),
     Code("E404", ERROR, "a geometric predicate in `:init`"),
     Code("E405", ERROR, "an effect on a derived predicate"),
-    Code("E406", ERROR, "an action cost that is negative or not finite (`1e400` reads as infinity)"),
+    Code("E406", ERROR, "an action cost that is negative or not finite (`1e400` reads as "
+                        "infinity)"),
 
     # Grounding
     Code("E600", ERROR, "an action or derived rule with too many parameter bindings (objects per "
@@ -237,6 +238,8 @@ _TABLE = (
                         "`tmpc-scene/1`)"),
     Code("E520", ERROR, "a position (object, robot base, workspace bound) more than 10 km from "
                         "the origin: a typo or a unit mix-up"),
+    Code("W301", WARNING, "a division by a constant zero in a `:semantics` or `:define` body: the "
+                        "value is always +inf, -inf or nan"),
     Code("W500", WARNING, "an unknown key or XML element in a legacy file: ignored, as the "
                           "original planner did"),
     Code("W501", WARNING, "a mesh file that cannot be found, loading with strict meshes off: kept "

@@ -193,6 +193,11 @@ class Formatter:
         if not items or not isinstance(items[0], SAtom) or (h or "").startswith("?"):
             return 0
         n = 1 + HEADER.get(h or "", 0)
+        if h and not h.startswith(":") and h not in HEADER and h not in RESERVED_HEADS:
+            # a declaration's name and its parameters stay on the opening line:
+            # `(reach ?g - gripper ?c - cube` then `:semantics ...` below
+            while n < len(items) and isinstance(items[n], SAtom) and not is_keyword(items[n]):
+                n += 1
         width = col + 1
         for i, it in enumerate(items[:n]):
             f = self.flat(it)

@@ -274,6 +274,13 @@ def _vec(v) -> np.ndarray:
     return v
 
 
+def _divide(x, y):
+    """IEEE division, as the kernels compute it: x/0 is +-inf, 0/0 nan (docs/language.md)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.divide(np.asarray(x, float), np.asarray(y, float))
+    return float(out) if np.ndim(out) == 0 else out
+
+
 def _arith(op):
     def f(ev, e, *args):
         if len(args) == 1 and op == "-":
@@ -281,7 +288,7 @@ def _arith(op):
         acc = args[0]
         for a in args[1:]:
             acc = {"+": lambda x, y: x + y, "-": lambda x, y: x - y,
-                   "*": lambda x, y: x * y, "/": lambda x, y: x / y}[op](acc, a)
+                   "*": lambda x, y: x * y, "/": _divide}[op](acc, a)
         return acc
     return f
 

@@ -28,10 +28,10 @@ import numpy as np
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import geo_atoms
 from tmpc.compiler.kernels import state_inputs
+from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.compiler.robot import Frames
 from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, pad_batch
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)

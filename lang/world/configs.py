@@ -261,7 +261,8 @@ def _native(r: TomlReader) -> RunConfig:
 
 def _positive(r: Reader, key: str, x: float) -> float:
     if not (x > 0 and math.isfinite(x)):
-        r.fail("E512", r.span(key), f"{key}: must be a positive finite number, found {x:g}")  # type: ignore[attr-defined]
+        r.fail("E512", r.span(key),  # type: ignore[attr-defined]
+               f"{key}: must be a positive finite number, found {x:g}")
     return x
 
 

@@ -294,7 +294,8 @@ def tree_to_data(tree: KinematicTree) -> dict:
 
     return {"format": TREE_FORMAT, "name": tree.name, "root": tree.root, "path": tree.path,
             "links": [{"name": lk.name,
-                       "collision": [{"shape": shape(g.shape), "origin": [list(r) for r in g.origin]}
+                       "collision": [{"shape": shape(g.shape),
+                                      "origin": [list(r) for r in g.origin]}
                                      for g in lk.collision]} for lk in tree.links],
             "joints": [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                         "origin": [list(r) for r in j.origin], "axis": list(j.axis),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_text
@@ -58,7 +59,8 @@ def run_fmt(paths: list[str], check: bool, fmt: str, print_diags) -> int:
             sys.stderr.write(f"would reformat {path}\n")
             status = 1
         else:
-            atomic_write_text(path, text)
+            # through a symlink to its target: the link stays a link
+            atomic_write_text(Path(path).resolve(), text)
             sys.stderr.write(f"reformatted {path}\n")
     if diags:
         print_diags(diags, files, fmt)

@@ -157,8 +157,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--state", metavar="S.json", help="objects and mode to sample in (state "
                        "JSON); default: the initial state")
         p.add_argument("--iterations", type=POSITIVE_INT, default=30, help="projection iterations")
-        p.add_argument("--max-starts", type=POSITIVE_INT, default=20000, help="give up after this many "
-                       "start configurations")
+        p.add_argument("--max-starts", type=POSITIVE_INT, default=20000,
+                       help="give up after this many start configurations")
         p.add_argument("--allow-collisions", action="store_true",
                        help="accept states in collision")
     elif name == "plan":
@@ -278,9 +278,10 @@ class _PipeGuard:
 
 
 def _number(kind, low: float, low_ok: bool, high: float | None = None):
-    """(Options a command checks itself with a code of its own, `plan`'s limits (E610) and
-    `validate`'s resolution and tolerance (E813), keep their plain types.) An argparse type: a finite ``kind`` above ``low`` (or at it, with ``low_ok``) and at
-    most ``high``; anything else is a usage error (exit 2) saying what is wanted."""
+    """An argparse type: a finite ``kind`` above ``low`` (or at it, with ``low_ok``) and at
+    most ``high``; anything else is a usage error (exit 2) saying what is wanted. (Options a
+    command checks itself with a code of its own, `plan`'s limits (E610) and `validate`'s
+    resolution and tolerance (E813), keep their plain types.)"""
     want = (f"{'>=' if low_ok else '>'} {low:g}" + (f" and <= {high:g}" if high is not None
                                                      else ""))
     name = "an integer" if kind is int else "a number"

@@ -6,7 +6,6 @@ import sys
 
 from tmpc.lang.diagnostics import render, render_json, sort_key, use_color
 
-
 #: diagnostics rendered as text before the rest are only counted (JSON lists them all)
 SHOWN = 50
 

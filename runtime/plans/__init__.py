@@ -2,8 +2,8 @@
 """
 
 from tmpc.runtime.plans.read import Plan as Plan
-from tmpc.runtime.plans.read import check_plan_fits as check_plan_fits
 from tmpc.runtime.plans.read import PlanState as PlanState
+from tmpc.runtime.plans.read import check_plan_fits as check_plan_fits
 from tmpc.runtime.plans.read import parse_ground as parse_ground
 from tmpc.runtime.plans.read import parse_plan as parse_plan
 from tmpc.runtime.plans.read import pose_matrix as pose_matrix

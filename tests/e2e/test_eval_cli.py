@@ -102,3 +102,20 @@ def test_missing_robot_meshes_block_collisions_but_not_kinematics(tmp_path):
     r = run(str(tmp_path / "scene.json"), "--collisions")
     assert r.returncode == 1 and "E562" in r.stderr and "tip.stl" in r.stderr
 
+
+
+def test_division_by_zero_is_ieee_as_in_the_kernels():
+    """`x/0` is +-inf and `0/0` nan in `tmpc eval` and the validator (its evaluator), as in the
+    planner's JAX kernels; it was an error here and inf there (L 8)."""
+    import math
+
+    import jax.numpy as jnp
+    out = {}
+    for expr in ("(/ -1 0)", "(/ 2 0)", "(/ 0 0)", "(<= (/ -1 0) 1)", "(<= (/ 0 0) 1)"):
+        r = run(TABLETOP, "--expr", expr, "--json")
+        assert r.returncode == 0, r.stderr
+        out[expr] = json.loads(r.stdout)["value"]
+    kernel = [float(jnp.float64(-1.0) / 0.0), float(jnp.float64(2.0) / 0.0)]
+    assert [out["(/ -1 0)"], out["(/ 2 0)"]] == kernel == [-math.inf, math.inf]
+    assert out["(/ 0 0)"] is None or math.isnan(out["(/ 0 0)"])
+    assert out["(<= (/ -1 0) 1)"] is True and out["(<= (/ 0 0) 1)"] is False

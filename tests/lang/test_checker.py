@@ -187,3 +187,11 @@ def test_action_costs_are_finite_and_not_negative(cost, bad):
                    f"  (:action a :parameters () :precondition (p)\n"
                    f"   :effect (and (p) (increase (total-cost) {cost}))))\n")
     assert ("E406" in errors(report)) == bad, codes(report)
+
+
+def test_a_constant_zero_divisor_is_warned():
+    report = check("(define (domain d) (:requirements :strips)\n"
+                   "  (:predicates (low ?m - manipulator :semantics (<= (/ (x (position ?m)) 0) 1))"
+                   "\n  (ok ?m - manipulator :semantics (<= (/ (x (position ?m)) 2) 1))))\n")
+    assert [d.code for d in report.diagnostics if d.code == "W301"] == ["W301"], codes(report)
+    assert not errors(report)

@@ -79,3 +79,44 @@ def test_fmt_refuses_files_with_syntax_errors(tmp_path):
     r = run("fmt", str(f))
     assert r.returncode == 1 and "E001" in r.stderr
     assert f.read_text() == "(define (domain d)\n  (:predicates (p))\n"
+
+
+def test_fmt_writes_through_a_symlink(tmp_path):
+    """`fmt link.pddl` formats the file the link points to; the link stays a link."""
+    target = tmp_path / "real.pddl"
+    target.write_text("(define (domain d) (:predicates (p)) (:action a :parameters () "
+                      ":precondition (p) :effect (not (p))))\n")
+    link = tmp_path / "link.pddl"
+    link.symlink_to(target)
+    r = run("fmt", str(link))
+    assert r.returncode == 0, r.stderr
+    assert link.is_symlink() and link.resolve() == target
+    assert run("fmt", "--check", str(target)).returncode == 0
+
+
+def test_a_declaration_keeps_its_parameters_on_its_opening_line():
+    """It came out one token per line once its semantics did not fit on one line."""
+    from tmpc.lang.formatter import format_doc
+    from tmpc.lang.reader import parse_source
+    from tmpc.lang.source import SourceFile
+    src = ("(define (domain d) (:requirements :strips) (:predicates (reach ?g - gripper ?c - cube "
+           ":semantics (and (<= (distance (position ?g) (position ?c)) 0.05) "
+           "(<= (z (position ?g)) (+ (z (position ?c)) 0.2))))))\n")
+    out = format_doc(parse_source(SourceFile("d.pddl", src)).sexpr)
+    assert out == ("(define (domain d)\n  (:requirements :strips)\n  (:predicates\n"
+                   "    (reach ?g - gripper ?c - cube\n"
+                   "      :semantics (and\n"
+                   "        (<= (distance (position ?g) (position ?c)) 0.05)\n"
+                   "        (<= (z (position ?g)) (+ (z (position ?c)) 0.2))))))\n")
+
+
+def test_the_bundled_examples_are_formatted():
+    from tests.support import EXAMPLES
+    from tmpc.lang.formatter import format_doc
+    from tmpc.lang.reader import parse_source
+    from tmpc.lang.source import SourceFile
+    files = sorted(EXAMPLES.glob("*/*.pddl"))
+    assert len(files) >= 8
+    for f in files:
+        src = SourceFile.read(f)
+        assert format_doc(parse_source(src).sexpr) == src.text, f"`tmpc fmt {f}` changes it"

@@ -1,5 +1,6 @@
-"""Collision meshes kept in the user cache as arrays (tmpc.compiler.meshes, through tmpc.runtime.collision.geometry):
-read back equal without the mesh loader, rebuilt when damaged, keyed by the file's contents."""
+"""Collision meshes kept in the user cache as arrays (tmpc.compiler.meshes, through
+tmpc.runtime.collision.geometry): read back equal without the mesh loader, rebuilt when
+damaged, keyed by the file's contents."""
 
 from __future__ import annotations
 
