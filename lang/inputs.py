@@ -5,7 +5,6 @@ by ``tmpc.compiler.artifact.open_world``, which extracts it and loads the extrac
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from tmpc.lang.world import (
     load_allowed_pairs,
     load_config,
     load_scene,
+    mesh_search_dirs,
 )
 
 
@@ -58,7 +58,7 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
     report = LoadReport()
     config = None
     # $TMPC_MESH_PATH also serves object meshes (tmit-star's repository lacks its .obj files)
-    fallback = [d for d in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep) if d]
+    fallback = mesh_search_dirs()
     if is_run_config(path):
         config = load_config(path, report=report)
         scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,

@@ -32,6 +32,7 @@ from tmpc.lang.world import (
     load_config,
     load_scene,
     load_urdf,
+    mesh_search_dirs,
 )
 
 STDLIB_PREFIX = "tmpc/"
@@ -242,13 +243,13 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             config = load_config(path, report=report)
             # the scene, Lua file, domain and problem it names are checked as a run reads them
             load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                       strict_meshes=False)
+                       strict_meshes=False, mesh_fallback_dirs=mesh_search_dirs())
             ws.files.update(report.files)
             ws.configs.append(config)
             return list(report.warnings)
         else:
             report = LoadReport()
-            load_scene(path, report=report)
+            load_scene(path, report=report, mesh_fallback_dirs=mesh_search_dirs())
             ws.files.update(report.files)
             return list(report.warnings)
     except TmpcError as exc:

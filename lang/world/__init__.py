@@ -14,6 +14,7 @@ from tmpc.lang.world.robot import find_file as find_file
 from tmpc.lang.world.robot import find_srdf as find_srdf
 from tmpc.lang.world.robot import import_yourdfpy as import_yourdfpy
 from tmpc.lang.world.robot import load_urdf as load_urdf
+from tmpc.lang.world.robot import mesh_search_dirs as mesh_search_dirs
 from tmpc.lang.world.robot import tree_from_data as tree_from_data
 from tmpc.lang.world.robot import tree_to_data as tree_to_data
 from tmpc.lang.world.rotations import matrix_from_quat as matrix_from_quat

@@ -97,13 +97,18 @@ def example_robot_data_dir() -> Path | None:
     return None
 
 
+def mesh_search_dirs() -> list[str]:
+    """The directories of ``$TMPC_MESH_PATH``, where meshes a checkout lacks are looked for
+    (robot and object meshes alike; `run`, `check` and every other command)."""
+    return [d for d in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep) if d]
+
+
 def _search_path(rel: str) -> list[Path]:
     """``$TMPC_MESH_PATH`` directories: by relative path, then by file name (e.g. to point a
     tmit-star checkout, whose .obj meshes are not in its repository, at planet's copies)."""
     out = []
-    for root in os.environ.get("TMPC_MESH_PATH", "").split(os.pathsep):
-        if root:
-            out += [Path(root) / rel, Path(root) / Path(rel).name]
+    for root in mesh_search_dirs():
+        out += [Path(root) / rel, Path(root) / Path(rel).name]
     return out
 
 

@@ -206,7 +206,8 @@ def test_check_static_reports_dead_actions_and_unreachable_goals(tmp_path):
                    "  (:action b :parameters () :precondition (p) :effect (q)))\n")
     prob = tmp_path / "p.pddl"
     prob.write_text("(define (problem pr) (:domain d) (:init (p)) (:goal (and (q) (r))))\n")
-    r = run("check", str(dom), str(prob), "--static")
+    # a generous budget: the test is about what is found, not how fast (2 s flaked under load)
+    r = run("check", str(dom), str(prob), "--static", "--budget", "60")
     assert r.returncode == 0, r.stderr
     assert "d.pddl:3:12: warning[W610]" in r.stderr and "action `a`" in r.stderr
     assert "warning[W612]" in r.stderr and "(r)" in r.stderr
@@ -240,3 +241,19 @@ def test_check_reads_an_allowed_collision_csv_as_one(tmp_path):
     assert r.returncode == 0 and "error" not in r.stderr, r.stderr
     r = run("check", str(bad))
     assert r.returncode == 1 and f"{bad}:2:1: error[E516]" in r.stderr, r.stderr
+
+
+def test_check_honours_the_mesh_path_as_run_does(tmp_path):
+    """tmit-star's repository lacks its .obj meshes: `check` looked only beside the scene
+    (W501) where `run` also searched $TMPC_MESH_PATH."""
+    import re
+
+    from tests.support import LEGACY
+    spec = LEGACY / "tmit-star" / "bin-picking" / "problems" / "pb_1.json"
+    r = run("check", str(spec))
+    missing = sorted(set(re.findall(r'mesh file "models/([^"]+)" not found', r.stderr)))
+    assert r.returncode == 0 and missing, r.stderr
+    for name in missing:
+        (tmp_path / name).write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    r = run("check", str(spec), env={**os.environ, "TMPC_MESH_PATH": str(tmp_path)})
+    assert r.returncode == 0 and "W501" not in r.stderr, r.stderr
