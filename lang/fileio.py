@@ -6,6 +6,18 @@ import os
 import tempfile
 from pathlib import Path
 
+#: temporary files of atomic writes under way (removed by an interrupt, tmpc.runtime.interrupts)
+_IN_FLIGHT: set[str] = set()
+
+
+def remove_in_flight() -> None:
+    """Remove the temporary files of the atomic writes under way (the process is stopping)."""
+    for tmp in list(_IN_FLIGHT):
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path``, fsync it, then rename over ``path``.
@@ -14,6 +26,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    _IN_FLIGHT.add(tmp)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -32,6 +45,8 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         except FileNotFoundError:
             pass
         raise
+    finally:
+        _IN_FLIGHT.discard(tmp)
 
 
 def unwritable(path: str | Path) -> str | None:

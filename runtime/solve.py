@@ -9,6 +9,7 @@ import numpy as np
 
 from tmpc.compiler.export import open_for_run
 from tmpc.lang.inputs import World
+from tmpc.runtime.interrupts import interruptible
 from tmpc.runtime.planners import make_planner
 from tmpc.runtime.problem import PlanningProblem, register_run_kernels
 
@@ -51,5 +52,6 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     split["traced"] = list(bank.traced_keys)
     problem.setup = split
     setup = time.perf_counter() - t0
-    result = algo.solve(time_limit, progress)
+    with interruptible():               # Ctrl-C / SIGTERM: the best progress, not an exit
+        result = algo.solve(time_limit, progress)
     return problem, result, setup

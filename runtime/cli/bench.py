@@ -11,6 +11,7 @@ from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.bench import Bench, Stop, check_output, problem_names
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.interrupts import interruptible, writing
 from tmpc.runtime.planners import PLANNERS, unknown_planner
 
 
@@ -36,15 +37,17 @@ def run_bench(args) -> int:
         open_world(path)
     bench = Bench(args, planners, names)
     try:
-        for path, name in zip(args.inputs, names):
-            try:
-                bench.problem(path, name)
-            except TmpcError as exc:
-                bench.failed_problem(path, name, exc)
+        with interruptible():         # Ctrl-C / SIGTERM end the sweep, not the process
+            for path, name in zip(args.inputs, names):
+                try:
+                    bench.problem(path, name)
+                except TmpcError as exc:
+                    bench.failed_problem(path, name, exc)
     except (KeyboardInterrupt, Stop):
         bench.interrupted = True
         sys.stderr.write("\ninterrupted: writing what was collected\n")
-    bench.finish()
+    with writing():
+        bench.finish()
     sys.stdout.write(bench.table() + "\n")
     return exit_code(bench)
 

@@ -17,6 +17,7 @@ from typing import Callable
 
 from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.cli.output import print_diagnostics
+from tmpc.runtime.interrupts import install as install_interrupts
 from tmpc.runtime.planners import PLANNERS
 
 # ---------------------------------------------------------------------------------------------
@@ -310,6 +311,7 @@ def run_and_exit(argv: list[str] | None = None):
     and thread pools) costs 0.3-0.5 s of a process that is done, so the process ends at once,
     its output flushed (every file tmpc writes is complete before then: atomic writes). Under
     a tracer or profiler (coverage, cProfile) the usual exit runs."""
+    install_interrupts()
     code = main(argv)
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -17,6 +17,7 @@ from tmpc.lang.diagnostics import InputError, TmpcError, error
 from tmpc.lang.fileio import unwritable
 from tmpc.lang.world import is_run_config, load_config
 from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.interrupts import writing
 from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
 from tmpc.runtime.solve import open_input, plan_problem
 from tmpc.runtime.viewer import write_html, write_png
@@ -49,6 +50,16 @@ def run_run(args, imports: float = 0.0) -> int:
         progress.done()
     doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
                         input_path=args.input, setup_seconds=setup)
+    with writing():                     # a signal now waits until every output is complete
+        _write_outputs(args, problem, doc, output)
+    split["output"] = time.perf_counter() - t
+    _report(doc, result, setup)
+    if args.verbose:
+        _report_setup(split, result)
+    return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
+
+
+def _write_outputs(args, problem, doc, output) -> None:
     if output:
         data = legacy_states(doc, args.legacy_output) if args.legacy_output else doc
         write_json_atomic(output, data)
@@ -60,11 +71,6 @@ def run_run(args, imports: float = 0.0) -> int:
         if args.png:
             write_png(problem.world, doc, args.png)
             sys.stderr.write(f"wrote {args.png}\n")
-    split["output"] = time.perf_counter() - t
-    _report(doc, result, setup)
-    if args.verbose:
-        _report_setup(split, result)
-    return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
 
 
 def _configured_output(path):
