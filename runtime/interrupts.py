@@ -10,7 +10,9 @@ the run went on). What the watcher does depends on the phase:
 * by default (loading, compiling, setup): print ``interrupted``, remove temporary files of
   atomic writes in flight (:mod:`tmpc.lang.fileio`), exit 130 at once;
 * inside :func:`interruptible` (planning): raise KeyboardInterrupt in the main thread, so the
-  planner stops with its best progress (``tmpc run`` then writes a partial plan, exit 3);
+  planner stops with its best progress (``tmpc run`` then writes a partial plan, exit 3); if
+  the main thread is inside C code that does not return within :data:`GRACE` seconds (a
+  runaway Lua predicate), stop as above;
 * inside :func:`writing` (an output being written): remember it and stop when the write is done.
 """
 
@@ -28,7 +30,9 @@ from tmpc.lang.fileio import remove_in_flight
 EXIT_INTERRUPTED = 130
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _lock = threading.Lock()
-_state = {"phase": "stop", "pending": False, "installed": False}
+_state = {"phase": "stop", "pending": False, "installed": False, "generation": 0}
+#: seconds a planner has to stop with its best progress before the process stops anyway
+GRACE = 2.0
 
 
 def install() -> bool:
@@ -50,10 +54,20 @@ def _watch() -> None:
             phase = _state["phase"]
             if phase == "interruptible":
                 _thread.interrupt_main()
+                # the main thread may be inside C code that does not return soon (a Lua call,
+                # an XLA compile): if the planner has not stopped within the grace period, stop
+                threading.Timer(GRACE, _unless_stopped, (_state["generation"],)).start()
             elif phase == "writing":
                 _state["pending"] = True
             else:
                 stop()
+
+
+def _unless_stopped(generation: int) -> None:
+    with _lock:
+        if _state["phase"] != "interruptible" or _state["generation"] != generation:
+            return
+    stop()
 
 
 def stop() -> None:
@@ -71,11 +85,13 @@ def stop() -> None:
 def _phase(name: str):
     with _lock:
         before, _state["phase"] = _state["phase"], name
+        _state["generation"] += 1
     try:
         yield
     finally:
         with _lock:
             _state["phase"] = before
+            _state["generation"] += 1
             pending = _state["pending"] and before != "writing"
         if pending:
             stop()
