@@ -22,7 +22,7 @@ from tmpc.lang.diagnostics import (
     error,
     warning,
 )
-from tmpc.lang.lua import load_lua_predicates
+from tmpc.lang.lua import arity_diagnostic, load_lua_predicates
 from tmpc.lang.reader import ParsedFile, parse_source
 from tmpc.lang.source import SourceFile, Span
 from tmpc.lang.world import (
@@ -307,13 +307,18 @@ def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
             continue
         ws.files.update(module.files)
         for d in external:
-            if module.lookup(d.name.text) is None:
+            fname = module.lookup(d.name.text)
+            if fname is None:
                 related = [Related(module.line_span(1), "the Lua file")] \
                     if module.line_span(1) else []
                 out.append(error("E707", f"no Lua function for geometric predicate "
                                  f"`{d.name.text}` in {module.path}", d.span,
                                  "the file defines: " + (", ".join(module.names) or "none"),
                                  related))
+                continue
+            fn = module.functions[fname]
+            if not fn.vararg and fn.nparams != len(d.params):      # as the compiler checks
+                out.append(arity_diagnostic(module, fn, d.name.text, len(d.params), d.span))
     return out
 
 

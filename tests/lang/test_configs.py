@@ -319,6 +319,13 @@ def test_check_of_a_run_config_checks_what_it_names(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and "E707" in bad.stderr and "domain.pddl:" in bad.stderr, bad.stderr
+    # the wrong number of parameters: E708 from `check`, as from a run (it was run-only)
+    lua.write_text(lua.read_text().replace("function at_renamed(m, x)", "function at(m, x, y)"))
+    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 1 and "error[E708]: Lua function `at` takes 3 parameter(s) but " \
+        "predicate `at` has 2" in bad.stderr, bad.stderr
+    lua.write_text(lua.read_text().replace("function at(m, x, y)", "function at(m, x)"))
     prob = ex / "problem.pddl"
     prob.write_text(prob.read_text().replace("(:goal (and", "(:goal (and (no-such-pred a)"))
     bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
