@@ -160,6 +160,7 @@ def test_the_same_sources_compile_to_the_same_bytes(tmp_path, monkeypatch):
     assert outs[0] == outs[1]
 
 
+@pytest.mark.slow
 def test_a_warm_run_imports_no_urdf_or_mesh_library(artifact, tmp_path):
     """Planning from an artifact whose robot and meshes the cache has seen parses no URDF and
     loads no mesh file: yourdfpy, trimesh and scipy.spatial (~0.7 s of imports) stay out."""
