@@ -68,6 +68,13 @@ class Diagnostic:
         return self.severity is Severity.ERROR
 
 
+def not_utf8(path, exc: UnicodeDecodeError, hint: str) -> tuple["Diagnostic", dict]:
+    """E011 at the line:col of the first byte that is not UTF-8, and the file to show it in."""
+    span, shown = SourceFile.undecodable(path, exc)
+    return error("E011", f"{path} is not UTF-8 text (byte {exc.start}: "
+                 f"0x{exc.object[exc.start]:02x})", span, hint), {str(path): shown}
+
+
 def error(code: str, message: str, span: Span | None, hint: str | None = None,
           related: Iterable[Related] = ()) -> Diagnostic:
     return Diagnostic(code, Severity.ERROR, message, span, hint, tuple(related))

@@ -20,6 +20,7 @@ from tmpc.lang.diagnostics import (
     Related,
     TmpcError,
     error,
+    not_utf8,
     warning,
 )
 from tmpc.lang.lua import arity_diagnostic, load_lua_predicates
@@ -59,10 +60,7 @@ class Workspace:
         except IsADirectoryError:
             raise InputError(error("E010", f"{key} is a directory, not a file", None)) from None
         except UnicodeDecodeError as exc:
-            span, shown = SourceFile.undecodable(path, exc)
-            raise InputError(error("E011", f"{key} is not UTF-8 text (byte {exc.start}: "
-                                   f"0x{exc.object[exc.start]:02x})", span,
-                                   "save the file as UTF-8"), {key: shown}) from None
+            raise InputError(*not_utf8(key, exc, "save the file as UTF-8")) from None
         except OSError as exc:
             raise InputError(error("E010", f"cannot read {key}: {exc.strerror}", None)) from None
         return self.add_source(src)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Iterator, NoReturn
 
-from tmpc.lang.diagnostics import Diagnostic, Related, SceneError, error, warning
+from tmpc.lang.diagnostics import Diagnostic, Related, SceneError, error, not_utf8, warning
 from tmpc.lang.jsonpos import JsonDoc, parse_json, pointer
 from tmpc.lang.source import SourceFile, Span
 from tmpc.lang.world.scene import Origin, Pose, Quat, Scene
@@ -117,10 +117,7 @@ def read_source(path: str | Path, what: str) -> SourceFile:
     except IsADirectoryError:
         raise SceneError(error("E010", f"{key} is a directory, not a {what} file", None)) from None
     except UnicodeDecodeError as exc:
-        span, shown = SourceFile.undecodable(path, exc)
-        raise SceneError(error("E011", f"{key} is not UTF-8 text (byte {exc.start}: "
-                               f"0x{exc.object[exc.start]:02x})", span,
-                               f"save the {what} file as UTF-8"), {key: shown}) from None
+        raise SceneError(*not_utf8(key, exc, f"save the {what} file as UTF-8")) from None
     except OSError as exc:
         raise SceneError(error("E010", f"cannot read {what} file {key}: {exc.strerror}",
                                None)) from None
