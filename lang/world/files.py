@@ -123,5 +123,7 @@ def resolve_mesh(r: Reader, opts: SceneOptions, raw: str, span: Span | None, whe
                            "directories) or load with strict meshes off to go on without them"))
     guess = next((t for t in tried if t.parent.is_dir()), tried[0])
     r.warn("W501", span, f"{where}: mesh file \"{raw}\" not found; kept as {guess}",
-           join_hints(looked, "collision checks need the mesh; give a mesh directory"))
+           join_hints(looked, "collision checks need the mesh: put it there, or set "
+                      "TMPC_MESH_PATH to directories that hold it (searched by relative path "
+                      "and by file name)"))
     return guess

@@ -257,3 +257,12 @@ def test_check_honours_the_mesh_path_as_run_does(tmp_path):
         (tmp_path / name).write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     r = run("check", str(spec), env={**os.environ, "TMPC_MESH_PATH": str(tmp_path)})
     assert r.returncode == 0 and "W501" not in r.stderr, r.stderr
+
+
+def test_the_clutter_generator_writes_a_run_manifest(tmp_path):
+    """`generate.py N` writes the manifest too, so `tmpc run` works on what it writes."""
+    gen = subprocess.run([sys.executable, str(EXAMPLES / "clutter" / "generate.py"), "3", "--red",
+                          "-o", str(tmp_path)], capture_output=True, text=True)
+    assert gen.returncode == 0, gen.stderr
+    r = run("check", str(tmp_path / "clutter-3-red.toml"))
+    assert r.returncode == 0 and "ok: domain clutter + problem" in r.stderr, r.stderr
