@@ -1,4 +1,4 @@
-"""The plan snapshot: a PNG of the robot and the objects near it at one state, drawn by a small
+"""The plan snapshot: a PNG of the whole scene at one state, drawn by a small
 numpy z-buffer rasterizer (:func:`render`: perspective, flat shading like the page, 2x
 supersampling) over a checkered floor, titled with the state's action; Pillow writes the file.
 
@@ -30,8 +30,9 @@ BACKGROUND = (0.933, 0.941, 0.953)
 
 def write_png(world, plan_dict, path, state_index: int | None = None,
               size: tuple[int, int] = (1200, 900)) -> None:
-    """A PNG of the robot and objects at one state (default: the last), ``size`` = (width,
-    height) pixels: the robot and the objects near it, seen from its front right."""
+    """A PNG of the whole scene at one state (default: the last), ``size`` = (width, height)
+    pixels, seen from the robot's front right and framed to show every object (a view of the
+    robot and what was near it left the tables out of clutter's first state)."""
     plan = _as_plan(plan_dict)
     n = len(plan.states)
     i = n - 1 if state_index is None else state_index
@@ -42,7 +43,7 @@ def write_png(world, plan_dict, path, state_index: int | None = None,
     poser = Poser(world, PNG_FACES)
     st = poser.resolve(plan)[i]
     P = poser.node_poses(st["links"], st["objects"])
-    tris, cols = _triangles(poser.scene3d, P, _near_robot(poser, P))
+    tris, cols = _triangles(poser.scene3d, P, set(range(len(poser.scene3d.nodes))))
     floor, fcols = _floor(tris)
     az = heading(st["T_root"]) + CAMERA_YAW
     img = render(np.concatenate([floor, tris]), np.concatenate([fcols, cols]), size, az,
@@ -56,32 +57,6 @@ def _png_title(plan, i: int, n: int) -> str:
         return f"state {i} of {n - 1}: {st.action_text}"
     before = next((s.action_text for s in reversed(plan.states[:i]) if s.action_text), None)
     return f"state {i} of {n - 1}" + (f" (after {before})" if before else " (start)")
-
-
-def _near_robot(poser: "Poser", P: np.ndarray, margin: float = 1.0) -> set[int]:
-    """Nodes to draw: the robot's, and objects within ``margin`` (xy) of the robot's box (all
-    objects when there is no robot)."""
-    s = poser.scene3d
-    robot = set(poser.link_nodes.values())
-    if not robot:
-        return set(range(len(s.nodes)))
-    pts = _part_points(s, P, robot)
-    lo, hi = pts.min(0) - margin, pts.max(0) + margin
-    keep = set(robot)
-    for k in poser.object_nodes.values():
-        q = _part_points(s, P, {k})
-        if len(q) and np.all(q.max(0)[:2] >= lo[:2]) and np.all(q.min(0)[:2] <= hi[:2]):
-            keep.add(k)
-    return keep
-
-
-def _part_points(s: "Scene3D", P: np.ndarray, nodes: set[int]) -> np.ndarray:
-    pts = []
-    for p in s.parts:
-        if p.node in nodes:
-            T = P[p.node] @ p.local
-            pts.append(p.mesh.vertices @ T[:3, :3].T + T[:3, 3])
-    return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
 def _triangles(s: Scene3D, P: np.ndarray, nodes: set[int]):

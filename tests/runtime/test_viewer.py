@@ -198,3 +198,20 @@ def test_cli(tmp_path):
     bad.write_text("[1, 2")
     r = cli(TABLETOP, bad, "--html", tmp_path / "b.html")
     assert r.returncode == 1 and "E800" in r.stderr and not (tmp_path / "b.html").exists()
+
+
+def test_the_png_frames_the_whole_scene(tmp_path):
+    """Clutter's first state showed the robot alone (the tables were more than a metre away):
+    the default view shows every object; the four tables are brown."""
+    from PIL import Image
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.viewer import write_png
+    world = open_world(CLUTTER, with_program=False)
+    out = tmp_path / "c.png"
+    write_png(world, json.loads((PLANS / "clutter.json").read_text()), out, state_index=0,
+              size=(400, 300))
+    a = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    brown = (a[..., 0] > 90) & (a[..., 0] < 160) & (a[..., 1] > 50) & (a[..., 1] < 110) & \
+        (a[..., 2] < 80)
+    assert brown.mean() > 0.05, brown.mean()
