@@ -35,7 +35,9 @@ _PREFIX = re.compile(r"^([^\s:]+):(\d+): ")
 _CODES = {
     "denied": ("E703", "E703"),
     "limit": ("E704", "E704"),
+    "time": ("E704", "E704"),
     "memory": ("E705", "E705"),
+    "size": ("E705", "E705"),
     "badreturn": ("E710", "E706"),
     "field": ("E709", "E709"),
     "error": ("E701", "E702"),
@@ -44,18 +46,22 @@ _CODES = {
 _HINTS = {
     "E703": "tmpc runs Lua predicates in a sandbox: no os, io, debug, load*, dofile, package, "
             "coroutine or string.dump; require serves only 'tmit-star'",
-    "E704": "an infinite loop? raise the budget with LuaLimits(instructions=...) if the "
-            "predicate really needs more",
-    "E705": "raise the cap with LuaLimits(memory=...) if the file really needs more",
+    "E704": "an infinite loop? a predicate call may run 10,000,000 Lua instructions and 10 s of "
+            "CPU (the limits are not settable yet)",
+    "E705": "the sandbox caps a Lua file at 64 MiB and one string.rep at 16 MiB (not settable "
+            "yet)",
 }
 
 
 @dataclass(frozen=True)
 class LuaLimits:
-    """Per-call instruction budget and per-file memory cap (bytes)."""
+    """Per-call instruction budget and CPU time (seconds), per-file memory cap (bytes), and the
+    largest string one ``string.rep`` may build (bytes)."""
 
     instructions: int = 10_000_000
     memory: int = 64 * 1024 * 1024
+    seconds: float = 10.0
+    string_bytes: int = 16 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -109,14 +115,15 @@ class _Sandbox:
         # The core keeps what it needs in locals; nothing else may reach these.
         self.rt.execute("python, debug, os, io, load, loadstring, dofile, loadfile, require, "
                         "package, collectgarbage = nil")
-        self.api.set_budget(limits.instructions)
+        self.api.set_budget(limits.instructions, limits.seconds)
+        self.api.set_string_cap(limits.string_bytes)
 
     def located(self, fn: str, *args) -> tuple:
         """Call a core function; if it fails (not by a limit), call it again with line tracking
         so the error's line is exact (a tail call hides the user's frame from the stack)."""
         raw = self.call(fn, *args, False)
-        if raw[0] in ("ok", "syntax", "memory", "limit", "badreturn") or \
-                (raw[0] == "error" and raw[1] in ("memory", "limit")):
+        if raw[0] in ("ok", "syntax", "memory", "limit", "time", "badreturn") or \
+                (raw[0] == "error" and raw[1] in ("memory", "limit", "time")):
             return raw
         return self.call(fn, *args, True)
 
@@ -216,6 +223,7 @@ class LuaModule:
         code = _CODES.get(outcome.kind, ("E701", "E702"))[1 if at_call else 0]
         where = f" in `{function}`" if function else ""
         what = {"limit": f"instruction limit ({self.limits.instructions:,}) exceeded",
+                "time": f"time limit ({self.limits.seconds:g} s of CPU per call) exceeded",
                 "memory": f"memory limit ({self.limits.memory:,} bytes) exceeded",
                 "badreturn": "wrong result type: " + outcome.message}.get(
                     outcome.kind, outcome.message)

@@ -12,6 +12,7 @@ local type, error, setmetatable, rawequal, rawget, rawset, tostring, pairs =
 local xpcall, pcall, load = xpcall, pcall, load
 local sformat, tunpack, tpack = string.format, table.unpack, table.pack
 local getinfo, sethook, getmt = debug.getinfo, debug.sethook, debug.getmetatable
+local clock, srep = os.clock, string.rep
 
 local core = {}
 
@@ -21,7 +22,10 @@ local core = {}
 -- With `track`, a line hook also remembers the last line of user code that ran: a tail call
 -- (`return And(...)`) removes the user's frame from the stack, so the stack alone cannot say
 -- where a combinator was called from. Python repeats a failed call with tracking on.
+-- A CPU-time limit per call too, checked by the same hook: work inside a C function (a loop of
+-- string.rep, a table.sort) costs few instructions and much time.
 local budget, used, STEP = 10000000, 0, 1000
+local seconds, started, timed_out = 10.0, 0, false
 local LIMIT = setmetatable({}, { __name = "tmpc instruction limit" })
 local USER = {}          -- chunk source ("=name") -> true
 local last_line          -- the last user line that ran (tracked calls only)
@@ -35,14 +39,15 @@ local function hook(event, line)
     if used <= budget then return end
   else
     used = used + STEP
+    if clock() - started > seconds then timed_out = true end
   end
-  if used > budget then
+  if used > budget or timed_out then
     sethook(hook, "", 1)
     error(LIMIT, 0)
   end
 end
 
-function core.set_budget(n) budget = n end
+function core.set_budget(n, s) budget, seconds = n, s or seconds end
 
 -- Where in the user's file are we? The last user line run if tracked, else the innermost
 -- frame of a user chunk on the stack.
@@ -78,7 +83,9 @@ end
 
 local function handler(e)
   sethook()
-  if rawequal(e, LIMIT) then return { kind = "limit", line = user_line() } end
+  if rawequal(e, LIMIT) then
+    return { kind = timed_out and "time" or "limit", line = user_line() }
+  end
   if type(e) == "table" then
     local mt = getmt(e)
     if rawequal(mt, UNTRACE) then
@@ -96,7 +103,7 @@ end
 
 -- Call f under the instruction limit; returns true, packed results | false, error info table.
 local function guarded(track, f, ...)
-  used, last_line = 0, nil
+  used, last_line, started, timed_out = 0, nil, clock(), false
   sethook(hook, track and "l" or "", STEP)
   local res = tpack(xpcall(f, handler, ...))
   sethook()
@@ -138,6 +145,19 @@ setmetatable(string, { __index = function(_, key)
   if STRING_DENIED[key] then deny("string." .. key) end
 end, __metatable = "string" })
 getmt("").__metatable = "string"
+
+-- string.rep builds its whole result inside one C call, where no hook fires: cap what one call
+-- may build (the memory cap alone lets a loop build and drop big strings for hours)
+local REP_CAP = 16 * 1024 * 1024
+function core.set_string_cap(n) REP_CAP = n end
+string.rep = function(s, n, sep)
+  local size = #tostring(s) * (n or 0) + (sep and #tostring(sep) * ((n or 1) - 1) or 0)
+  if type(n) == "number" and size > REP_CAP then
+    fail(sformat("string.rep would build %d bytes, more than the %d one call may build",
+                 size, REP_CAP), "size")
+  end
+  return srep(s, n, sep)
+end
 
 -- A finalizer would run user code at some later garbage collection, outside any budget.
 local function user_setmetatable(t, mt)

@@ -482,3 +482,16 @@ def test_untraceable_lua_predicate_points_at_its_function(untraceable_sort):
     assert bad.span.path.endswith("sort.lua") and bad.span.path in bad.files
     new = lua.read_text()
     assert new[bad.span.start:].startswith("function at(")
+
+
+def test_work_inside_c_functions_is_bounded(tmp_path):
+    """`string.rep` in a loop costs few instructions and hours of time (L 1): a CPU-time budget
+    per call and a cap on what one string.rep may build stop it, at the line."""
+    src = 'for i = 1, 3e6 do\n  local s = ("x"):rep(1e7)\nend\n'
+    code, line = raises(src, tmp_path, limits=LuaLimits(seconds=0.5))
+    assert (code, line) == ("E704", 2)
+    path = tmp_path / "big.lua"
+    path.write_text('local s = ("x"):rep(2^30)\n')
+    with pytest.raises(LuaError, match="string.rep would build 1073741824 bytes") as ei:
+        load_lua_predicates(path)
+    assert ei.value.diagnostics[0].code == "E705"
