@@ -42,7 +42,7 @@ from tmpc.compiler.robot import RobotModel, make_fk, make_fk_frames, robot_model
 from tmpc.lang import ast as A
 from tmpc.lang.checker import CheckedProgram
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.lang.lua import load_lua_predicates
+from tmpc.lang.lua import LuaLimits, load_lua_predicates, lua_limits
 from tmpc.lang.world import Scene
 
 
@@ -344,7 +344,7 @@ def _compile(world, options: Options) -> CompiledProgram:
     cfg, program = world.config, world.program
     external: Mapping = {}
     if cfg is not None and cfg.semantics is not None and program is not None:
-        external = LazyExternal(cfg.semantics, program)
+        external = LazyExternal(cfg.semantics, program, lua_limits(cfg))
     bank = KernelBank()
     if world.artifact is not None:
         bank = load_bank(*world.artifact)
@@ -358,8 +358,8 @@ class LazyExternal(Mapping):
     """The Lua predicates' IR, traced from the semantics file on first access; ``known``: the
     names an artifact says the file defines (so a run from it needs no tracing to know)."""
 
-    def __init__(self, semantics, program: CheckedProgram):
-        self.semantics, self.program = semantics, program
+    def __init__(self, semantics, program: CheckedProgram, limits: LuaLimits | None = None):
+        self.semantics, self.program, self.limits = semantics, program, limits
         self.known: frozenset | None = None
         self._ir: dict | None = None
 
@@ -372,7 +372,7 @@ class LazyExternal(Mapping):
 
     def _load(self) -> dict:
         if self._ir is None:
-            self._ir = external_predicates(self.semantics, self.program)
+            self._ir = external_predicates(self.semantics, self.program, self.limits)
         return self._ir
 
     def __getitem__(self, key):
@@ -408,7 +408,8 @@ class _Lazy:
         return self._fn(*args)
 
 
-def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir.Node]:
+def external_predicates(semantics: str, program: CheckedProgram,
+                        limits: LuaLimits | None = None) -> dict[str, ir.Node]:
     """IR of the program's Lua-defined geometric predicates, traced from ``semantics``.
 
     A predicate tracing cannot capture (data-dependent branches) is evaluated directly by its Lua
@@ -417,7 +418,7 @@ def external_predicates(semantics: str, program: CheckedProgram) -> dict[str, ir
     decls = {d.name.text: d for d in program.domain.predicates if d.external}
     if not decls:
         return {}
-    result = trace_module(load_lua_predicates(semantics), decls)
+    result = trace_module(load_lua_predicates(semantics, limits=limits), decls)
     out = {name.lower(): node for name, node in result.traced.items()}
     for name, fb in result.fallbacks.items():
         fn = fb.module.functions.get(fb.function)

@@ -46,10 +46,10 @@ _CODES = {
 _HINTS = {
     "E703": "tmpc runs Lua predicates in a sandbox: no os, io, debug, load*, dofile, package, "
             "coroutine or string.dump; require serves only 'tmit-star'",
-    "E704": "an infinite loop? a predicate call may run 10,000,000 Lua instructions and 10 s of "
-            "CPU (the limits are not settable yet)",
-    "E705": "the sandbox caps a Lua file at 64 MiB and one string.rep at 16 MiB (not settable "
-            "yet)",
+    "E704": "an infinite loop? if the predicate really needs more, raise `lua_instructions` or "
+            "`lua_seconds` under [planner] in the run manifest",
+    "E705": "if the file really needs more, raise `lua_memory` under [planner] in the run "
+            "manifest (one string.rep may build at most 16 MiB)",
 }
 
 
@@ -62,6 +62,17 @@ class LuaLimits:
     memory: int = 64 * 1024 * 1024
     seconds: float = 10.0
     string_bytes: int = 16 * 1024 * 1024
+
+
+def lua_limits(config) -> LuaLimits:
+    """The sandbox's limits for a run configuration: its ``[planner]`` ``lua_instructions``,
+    ``lua_seconds`` and ``lua_memory``, else the defaults (also without a configuration)."""
+    params = dict(getattr(config, "params", ()) or ())
+    base = LuaLimits()
+    return LuaLimits(instructions=int(params.get("lua_instructions", base.instructions)),
+                     memory=int(params.get("lua_memory", base.memory)),
+                     seconds=float(params.get("lua_seconds", base.seconds)),
+                     string_bytes=base.string_bytes)
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from tmpc.lang.diagnostics import (
     not_utf8,
     warning,
 )
-from tmpc.lang.lua import arity_diagnostic, load_lua_predicates
+from tmpc.lang.lua import arity_diagnostic, load_lua_predicates, lua_limits
 from tmpc.lang.reader import ParsedFile, parse_source
 from tmpc.lang.source import SourceFile, Span
 from tmpc.lang.world import (
@@ -298,7 +298,7 @@ def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
                                  "add `semantics = \"predicates.lua\"` to the configuration"))
             continue
         try:
-            module = load_lua_predicates(config.semantics)
+            module = load_lua_predicates(config.semantics, limits=lua_limits(config))
         except TmpcError as exc:
             ws.files.update(exc.files)
             out.extend(exc.diagnostics)

@@ -53,6 +53,10 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "max_steps": (int, "longest task plan tried (tmit-star: 100)"),
     "batch_size": (int, "samples per mode per batch (tmit-star: 50)"),
     "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
+    "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
+                              "10,000,000)"),
+    "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),
+    "lua_memory": (int, "bytes a Lua predicate file may allocate (default 64 MiB)"),
     "collision_tolerance": (float, "penetration depth (m) not counted as a collision (planet: "
                                    f"{LEGACY_TOLERANCES['planet-toml']}, tmit-star: "
                                    f"{LEGACY_TOLERANCES['tmit-star-json']})"),

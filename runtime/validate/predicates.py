@@ -16,7 +16,7 @@ from tmpc.compiler.lua_trace import LuaFallback
 from tmpc.compiler.robot import Frames, robot_model
 from tmpc.compiler.state import matrix_to_quat
 from tmpc.lang.diagnostics import TmpcError
-from tmpc.lang.lua import load_lua_predicates
+from tmpc.lang.lua import load_lua_predicates, lua_limits
 from tmpc.runtime.evaluate import Evaluator, Obj
 from tmpc.runtime.validate.kinematics import heading
 
@@ -67,8 +67,8 @@ class Predicates:
         """A legacy geometric predicate: its Lua function evaluated directly at the state."""
         cfg = self.world.config
         if self._module is None:
-            self._module = (load_lua_predicates(cfg.semantics) if cfg and cfg.semantics
-                            else None,)
+            self._module = (load_lua_predicates(cfg.semantics, limits=lua_limits(cfg))
+                            if cfg and cfg.semantics else None,)
         module = self._module[0]
         fn = module.lookup(decl.name.text) if module is not None else None
         if fn is None:

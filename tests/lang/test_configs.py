@@ -331,3 +331,21 @@ def test_check_of_a_run_config_checks_what_it_names(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and "problem.pddl:" in bad.stderr, bad.stderr
+
+
+def test_lua_limits_come_from_the_manifest(tmp_path):
+    """`[planner] lua_seconds` (and `lua_instructions`, `lua_memory`) set the sandbox's limits
+    for `check` as for a run; the E704 hint names them (it named a Python API)."""
+    import subprocess
+    import sys
+    ex = tmp_path / "ps"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    lua = ex / "sort.lua"
+    lua.write_text('for i = 1, 3e6 do local s = ("x"):rep(1e6) end\n' + lua.read_text())
+    (ex / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
+                                 'scene = "scene.xml"\nsemantics = "sort.lua"\n'
+                                 "[planner]\nlua_seconds = 0.5\n")
+    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "run.toml")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1 and "error[E704]" in r.stderr and "time limit (0.5 s" in r.stderr
+    assert "`lua_seconds`" in r.stderr, r.stderr
