@@ -59,7 +59,8 @@ MAX_MEMBER = 512 << 20
 MAX_TOTAL = 2 << 30
 MAX_MANIFEST = 16 << 20
 _CHUNK = 1 << 20
-#: what damaged zip data raises while it is decompressed
+#: what damaged zip data raises while it is decompressed (NotImplementedError: a compression
+#: method zipfile does not support)
 _DAMAGED = (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError,
             RuntimeError)
 
@@ -68,13 +69,7 @@ def read_manifest(path: str | Path) -> tuple[dict, zipfile.ZipFile]:
     """Open an artifact, check its manifest's structure and every member's size and digest
     (streamed: nothing larger than the manifest says, or than :data:`MAX_MEMBER`, is
     decompressed). Every problem is an E590 naming what is wrong."""
-    try:
-        z = zipfile.ZipFile(path)
-    except FileNotFoundError:
-        raise InputError(error("E010", f"no such file: {path}", None)) from None
-    except _DAMAGED as exc:
-        raise _bad(path, f"not a tmpc artifact (not a readable zip archive: {exc})",
-                   "rebuild it with `tmpc compile`; a truncated copy looks like this") from None
+    z = _open_zip(path)
     try:
         z.getinfo(MAGIC_MEMBER)
     except KeyError:
@@ -91,6 +86,16 @@ def read_manifest(path: str | Path) -> tuple[dict, zipfile.ZipFile]:
         if total > MAX_TOTAL:
             raise _bad(path, f"members add up to more than {MAX_TOTAL >> 20} MiB")
     return manifest, z
+
+
+def _open_zip(path) -> zipfile.ZipFile:
+    try:
+        return zipfile.ZipFile(path)
+    except FileNotFoundError:
+        raise InputError(error("E010", f"no such file: {path}", None)) from None
+    except _DAMAGED as exc:
+        raise _bad(path, f"not a tmpc artifact (not a readable zip archive: {exc})",
+                   "rebuild it with `tmpc compile`; a truncated copy looks like this") from None
 
 
 def member(path, z: zipfile.ZipFile, manifest: dict, name: str) -> bytes:
@@ -231,6 +236,8 @@ def load_bank(path: str | Path, manifest: dict) -> KernelBank:
                           f"{package_version('jax')}: tracing {', '.join(sorted(entries))} "
                           "from the artifact's sources instead", stacklevel=2)
         return KernelBank()
-    _, z = read_manifest(path)
+    # ``manifest`` was checked when the artifact was opened; each kernel read is checked against
+    # its digest there, so the archive is not verified a second time
+    z = _open_zip(path)
     exported = {key: member(path, z, manifest, name) for key, name in entries.items() if name}
     return KernelBank.load(exported, section.get("skipped", {}), str(path))

@@ -196,13 +196,13 @@ class PlanningProblem:
         """Load (or, without an artifact, trace and compile) what planning will call, so
         planning time is planning: every action schema's projector at the projection batch
         shape, the goal's, and the collision checker's kinematics at the batch sizes motions
-        use (up to 128 states; a longer batch loads its kernel when it first comes). Returns
-        the seconds spent here, waiting included (also in ``compile``)."""
+        use (the pads below a chunk; a chunk-long batch loads its kernel when it first
+        comes). Returns the seconds spent here, waiting included (also in ``compile``)."""
         t = time.perf_counter()
         self.start_warm_up(rng)
         mode = self.initial
         for n in PAD_SIZES:
-            if n <= 128:
+            if n < CHUNK:
                 self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
                                            attached=mode.held)
         for fut in self._warming:
