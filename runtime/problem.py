@@ -62,6 +62,8 @@ class Timers:
     heuristic: float = 0.0
     sampling: float = 0.0
     compile: float = 0.0
+    task_planning: float = 0.0
+    search: float = 0.0
 
     def as_dict(self) -> dict:
         return {k: round(v, 4) for k, v in vars(self).items()}
@@ -114,6 +116,7 @@ class PlanningProblem:
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
         self.wraps = np.asarray(self.model.wraps, bool)
         self._projectors: dict[str, tuple] = {}
+        self._raw_projectors: dict[str, object] = {}
         self._goal = None
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
@@ -250,7 +253,8 @@ class PlanningProblem:
             t = time.perf_counter()
             formula = self.compiled.action(schema)
             kernel, _ = self.compiled.kernels(formula)
-            proj = self._iterated(self.compiled.projector(formula))
+            raw = self._raw_projectors[formula.key] = self.compiled.projector(formula)
+            proj = self._iterated(raw)
             self._projectors[schema] = (formula, proj, kernel)
             self.timers.compile += time.perf_counter() - t
         return self._projectors[schema]
@@ -263,7 +267,8 @@ class PlanningProblem:
                 self._goal = (None,)
             else:
                 kernel, _ = self.compiled.kernels(formula)
-                self._goal = (formula, self._iterated(self.compiled.projector(formula)), kernel)
+                raw = self._raw_projectors[formula.key] = self.compiled.projector(formula)
+                self._goal = (formula, self._iterated(raw), kernel)
         return None if self._goal[0] is None else self._goal
 
     def _iterated(self, project):
@@ -280,23 +285,61 @@ class PlanningProblem:
     def project(self, mode: Mode, action, starts: np.ndarray) -> np.ndarray:
         """Configurations (k, n) from ``starts`` where ``action``'s geometric precondition (the
         goal's, for ``action=None``) holds in ``mode`` and that are collision-free."""
-        if action is None:
-            goal = self.goal_formula()
-            if goal is None:
-                return starts[:1]
-            _, proj, _ = goal
-            args = np.zeros(0, np.int64)
-        else:
-            formula, proj, _ = self.projector(action.schema)
-            args = self.compiled.bind_args(formula, list(action.args))
-        t = time.perf_counter()
-        Q, holds, _ = proj(starts, mode.obj_T, mode.obj_parent, args)
-        Q, holds = np.asarray(Q), np.asarray(holds)
-        self.timers.projection += time.perf_counter() - t
+        if action is None and self.goal_formula() is None:
+            return starts[:1]
+        Q, holds, _ = self.project_raw(mode, action, starts)
         Q = Q[holds]
         if not len(Q):
             return Q
         return Q[self.valid_batch(mode, Q)]
+
+    def project_raw(self, mode: Mode, action, starts: np.ndarray,
+                    iterations: int | None = None):
+        """The projector of ``action``'s geometric precondition (the goal's for None) from
+        ``starts`` (B, n) in ``mode``, any B (calls of PROJECTION_BATCH starts, the last one
+        padded): ``(Q, holds, distance)`` after ``iterations`` steps (default the problem's;
+        0: the distance at the starts themselves, one batched kernel call per 16 states)."""
+        if action is None:
+            formula, proj, _ = self.goal_formula()
+            args = np.zeros(0, np.int64)
+        else:
+            formula, proj, _ = self.projector(action.schema)
+            args = self.compiled.bind_args(formula, list(action.args))
+        raw = self._raw_projectors[formula.key]
+        n = np.int64(self.iterations if iterations is None else iterations)
+        starts = np.asarray(starts, float)
+        t = time.perf_counter()
+        out = [[], [], []]
+        for lo in range(0, len(starts), PROJECTION_BATCH):
+            chunk = starts[lo:lo + PROJECTION_BATCH]
+            pad = np.concatenate([chunk, np.repeat(chunk[-1:], PROJECTION_BATCH - len(chunk), 0)])
+            Q, holds, d = raw(pad, mode.obj_T, mode.obj_parent, args, n)
+            for acc, x in zip(out, (Q, holds, d)):
+                acc.append(np.asarray(x)[:len(chunk)])
+        self.timers.projection += time.perf_counter() - t
+        if not out[0]:
+            return (np.zeros((0, len(self.lower))), np.zeros(0, bool), np.zeros(0))
+        return tuple(np.concatenate(acc) for acc in out)
+
+    def distances(self, mode: Mode, action, Q: np.ndarray) -> np.ndarray:
+        """The unsatisfaction distance (B,) of ``action``'s geometric precondition (the goal's
+        for None) at states Q (B, n) in ``mode``: 0 where it holds; 0 everywhere for an action
+        (or a goal) without geometric literals."""
+        if (action is None and self.goal_formula() is None) or \
+                (action is not None and not self.has_geometry(action)):
+            return np.zeros(len(Q))
+        return self.project_raw(mode, action, Q, iterations=0)[2]
+
+    def cost(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """tmit-star's composite path length of the straight motions from ``q`` to each of Q
+        (B, n): L2 over the joints + the base's planar distance + its yaw the short way round
+        (``../shared/baselines/tmit-star/cost.py``; continuous joints the short way, as tmpc's
+        motions interpolate them)."""
+        d = self.difference(Q, q)
+        if not self.model.mobile_base:
+            return np.linalg.norm(d, axis=-1)
+        return (np.linalg.norm(d[..., 3:], axis=-1) + np.linalg.norm(d[..., :2], axis=-1)
+                + np.abs(d[..., 2]))
 
     def holds(self, mode: Mode, action, q: np.ndarray) -> bool:
         """Does ``action``'s geometric precondition (the goal's for None) hold at ``q``?"""

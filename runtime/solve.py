@@ -25,12 +25,14 @@ def open_input(path, on_compile=None) -> tuple[World, dict]:
 
 
 def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit: float = 120.0,
-                 overrides: dict | None = None, progress=None):
+                 overrides: dict | None = None, progress=None, on_solution=None):
     """Load (``input_path``: a path or a loaded :class:`World`), check and plan; returns
     (problem, result, setup seconds). ``problem.setup`` has the split: ``problem`` (grounding,
     the collision world, the pre-checks), ``deserialize`` (exported kernels read) and
     ``first_call`` (their first calls: XLA compiles or loads them from its cache), plus
-    ``load``/``compile`` and ``kernels`` from :func:`open_input` when given a path."""
+    ``load``/``compile`` and ``kernels`` from :func:`open_input` when given a path.
+    ``on_solution(problem, result, setup)``: called by an anytime planner at every improved
+    solution."""
     t0 = time.perf_counter()
     split: dict = {}
     if isinstance(input_path, World):
@@ -52,6 +54,8 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     split["traced"] = list(bank.traced_keys)
     problem.setup = split
     setup = time.perf_counter() - t0
+    if on_solution is not None and hasattr(algo, "on_solution"):
+        algo.on_solution = lambda result: on_solution(problem, result, setup)
     with interruptible():               # Ctrl-C / SIGTERM: the best progress, not an exit
         result = algo.solve(time_limit, progress)
     return problem, result, setup

@@ -190,7 +190,18 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--legacy-output", choices=("planet", "tmit-star"),
                        help="write the bare state array of that planner instead of tmpc-plan/1")
         p.add_argument("--heuristic-bias", type=PROBABILITY, default=None,
-                       help="probability of a heuristic sample (planet coin_bias)")
+                       help="unified: probability of a heuristic sample (planet coin_bias)")
+        p.add_argument("--batch-size", type=POSITIVE_INT, default=None,
+                       help="optimal: samples per mode per batch (default: the "
+                       "configuration's batch_size, else 50)")
+        p.add_argument("--rewire-factor", type=SECONDS, default=None, metavar="F",
+                       help="optimal: scales the k-nearest neighbours and the transition "
+                       "radius (default 1)")
+        p.add_argument("--first-solution", action="store_true",
+                       help="optimal: stop at the first solution (as tmit-star without -o)")
+        p.add_argument("--until-converged", action="store_true",
+                       help="optimal: stop once the best cost of the last 10 searches "
+                       "varies by at most 10%%")
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
                        "imports, load, compile, deserialize, first-call compile, planning, output")

@@ -41,8 +41,9 @@ def run_run(args, imports: float = 0.0) -> int:
         sys.stderr.write("tmpc run: the time limit must be > 0\n")
         return EXIT_USAGE
     progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
+    on_solution = _anytime_writer(args, output, opened) if output else None
     problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit,
-                                          planner_overrides(args), progress)
+                                          planner_overrides(args), progress, on_solution)
     split = {"imports": imports, **opened, **problem.setup}
     setup += opened.get("load", 0.0) + opened.get("compile", 0.0)
     t = time.perf_counter()
@@ -73,6 +74,19 @@ def _write_outputs(args, problem, doc, output) -> None:
             sys.stderr.write(f"wrote {args.png}\n")
 
 
+def _anytime_writer(args, output, opened):
+    """An anytime planner's ``on_solution``: every improved plan is written to ``output`` at
+    once (atomically), so a run stopped later still leaves its best plan."""
+    def write(problem, result, setup: float) -> None:
+        setup += opened.get("load", 0.0) + opened.get("compile", 0.0)
+        doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
+                            input_path=args.input, setup_seconds=setup)
+        with writing():
+            data = legacy_states(doc, args.legacy_output) if args.legacy_output else doc
+            write_json_atomic(output, data)
+    return write
+
+
 def _configured_output(path):
     """The output a run configuration names (read without loading anything it names), if any."""
     if is_artifact(path) or not is_run_config(path):
@@ -94,7 +108,12 @@ def _check_outputs(outputs) -> None:
 
 def planner_overrides(args) -> dict:
     """The planner options given on the command line (None where not given)."""
-    return {"heuristic_bias": getattr(args, "heuristic_bias", None)}
+    flag = (lambda name: True if getattr(args, name, False) else None)
+    return {"heuristic_bias": getattr(args, "heuristic_bias", None),
+            "batch_size": getattr(args, "batch_size", None),
+            "rewire": getattr(args, "rewire_factor", None),
+            "first_solution": flag("first_solution"),
+            "until_converged": flag("until_converged")}
 
 
 def _compiling(path) -> None:

@@ -34,9 +34,16 @@ def _unified(problem, seed: int, overrides: dict):
     return UnifiedPlanner.from_options(problem, seed, overrides)
 
 
+def _optimal(problem, seed: int, overrides: dict):
+    from tmpc.runtime.planners.optimal import OptimalPlanner
+    return OptimalPlanner.from_options(problem, seed, overrides)
+
+
 PLANNERS: dict[str, PlannerSpec] = {
     "unified": PlannerSpec(_unified,
                            "composite-space RRT with the Algorithm 1 sampler (thesis ch. 2, planet)"),
+    "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT task plans, lazy transitions, "
+                           "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)"),
 }
 
 
@@ -57,6 +64,8 @@ def unknown_planner(name: str) -> InputError:
 _LAZY = {
     "UnifiedPlanner": "tmpc.runtime.planners.unified", "UnifiedOptions": "tmpc.runtime.planners.unified",
     "UnifiedResult": "tmpc.runtime.planners.unified",
+    "OptimalPlanner": "tmpc.runtime.planners.optimal", "OptimalOptions": "tmpc.runtime.planners.optimal",
+    "OptimalResult": "tmpc.runtime.planners.optimal",
     "FFHeuristic": "tmpc.runtime.planners.heuristic",
     "TaskPlanner": "tmpc.runtime.planners.taskplan", "simulate": "tmpc.runtime.planners.taskplan",
     "SOLVED": "tmpc.runtime.planners.taskplan", "TIMEOUT": "tmpc.runtime.planners.taskplan",

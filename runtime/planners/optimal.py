@@ -1,0 +1,640 @@
+"""The ``optimal`` planner (thesis ch. 4, tmit-star's TMIT*): task plans from incremental SAT,
+a multimodal random geometric graph grown in batches, lazy transitions, and an asymmetric
+(reverse heuristic, forward lazy) search; anytime.
+
+**Task plans.** :class:`~tmpc.runtime.planners.taskplan.TaskPlanner` (geometric literals get
+blockers) gives the shortest plan consistent with what was learnt. Each of its steps becomes a
+*transition* of the step's symbolic state: ``(action, successor state)`` with success/failure
+counts. A new task plan is asked for when no transition has budget left, or when a batch tried a
+transition and the batch budget (5) is spent. Before asking, the last plan's prefix up to and
+including its first transition without a success is excluded, and **blockers** are pinned
+(thesis §4.3.5): a transition that succeeded shows its geometric literals hold after its prefix;
+one that never succeeded, with a literal false at its best attempt (the projection closest to
+the precondition), shows that literal false there. Pinned literals remove every plan that needs
+them at that point without first running an action that may change them, not only the excluded
+prefix.
+
+**The graph.** Vertices are ``(q, mode)``. Per batch, each reachable mode (modes reached in this
+batch first, as tmit-star's frontier) gets ``batch_size`` uniform collision-free samples. For
+every new sample and every transition of the mode's symbolic state with budget left (fewer than
+5 successes and fewer than the batch's cap, which starts at 1 and grows by 1 per batch), the
+precondition's distance is evaluated (the projector at 0 iterations: batched). Only samples
+closer than the mode's PRM* connection radius are projected (from the sample itself). A success
+adds a *transition vertex* in the mode and a *bridge vertex* at the same configuration in the
+successor mode (deduplicated by symbolic state, held frames and poses to 1e-3), joined by a
+zero-cost directed edge. A goal with geometric literals is one more transition of the goal
+states, whose successes are goal vertices; otherwise every bridge into a goal mode is one.
+Inside a mode, vertices are joined to their k nearest neighbours (k = ceil(rewire (e + e/d) log
+n)), symmetrised; there are no other edges, so across modes the distance is infinite without a
+known transition.
+
+**The search** (AIT*-style). A reverse Dijkstra from the goal vertices over the graph with
+collisions ignored (edge directions reversed; SciPy's csgraph) gives an admissible, consistent
+cost-to-go ``h``. The forward search is A* on ``g + h`` that checks each edge for collision only
+when the entry that uses it is popped (lazy A*): the first goal popped is the best path of the
+edges that are valid. A failed edge is blacklisted: it leaves the graph at the next rebuild, and
+with it the reverse branch through it. Costs are tmit-star's composite path length
+(:meth:`PlanningProblem.cost`), so plan costs compare across the two planners.
+
+**Anytime.** After the first solution, batches go on until the time limit; each improved
+solution is reported (``on_solution``: the CLI writes it atomically) and recorded in the
+cost-over-time trace. ``first_solution`` stops at the first one (tmit-star without ``-o``);
+``until_converged`` stops once the last ``converged_solutions`` searches' best costs lie within
+``converged_ratio`` of each other. Ctrl-C keeps the best plan.
+
+Differences from tmit-star (docs/planning.md): the reverse search is recomputed per batch
+rather than repaired incrementally (LPA*); a mode's samples go through one batched collision
+call; blockers are used (tmit-star declares ``blocked_steps`` and never reads it).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
+from tmpc.runtime.problem import Mode, PlanningProblem
+
+#: cost of a transition edge (same configuration): positive so sparse graphs keep it
+_BRIDGE = 1e-12
+
+
+@dataclass(frozen=True)
+class OptimalOptions:
+    batch_size: int = 50               # uniform samples per mode per batch (tmit-star: 50)
+    batch_budget: int = 5              # batches per task plan (tmit-star: 5)
+    rewire: float = 1.0                # k-nearest rewire factor
+    resolution: float = 0.05           # motion-check resolution (the validator's default)
+    absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
+    cap_increment: int = 1             # the per-batch success cap grows by this much
+    first_solution: bool = False       # stop at the first solution (tmit-star without -o)
+    until_converged: bool = False
+    converged_solutions: int = 10
+    converged_ratio: float = 0.10
+    min_steps: int = 0
+    max_steps: int = 100               # tmit-star's default
+
+
+@dataclass
+class OptimalResult:
+    status: str                        # solved | partial | interrupted
+    path: list[tuple[np.ndarray, Mode, object | None]]
+    stats: dict = field(default_factory=dict)
+    cost: float = math.inf
+
+
+@dataclass(eq=False)
+class Transition:
+    """An action of a symbolic state that task plans asked for (``action`` None: the goal's
+    geometric literals, in a goal state)."""
+
+    sym: int
+    action: object | None
+    to_sym: int
+    successes: int = 0
+    failures: int = 0
+    #: (distance, mode, q) of the failed attempt closest to the precondition
+    best_fail: tuple | None = None
+
+
+class OptimalPlanner:
+    def __init__(self, problem: PlanningProblem, seed: int = 0,
+                 options: OptimalOptions = OptimalOptions()):
+        self.p = problem
+        self.opt = options
+        self.rng = np.random.default_rng(seed)
+        self.tp: TaskPlanner | None = None
+        self.dim = len(problem.lower)
+        span = np.where(problem.wraps, 2 * np.pi, problem.upper - problem.lower)
+        #: log of the space's measure over the unit ball's (PRM* radius)
+        d = self.dim
+        self._log_ratio = float(np.log(np.maximum(span, 1e-9)).sum()
+                                - (d / 2 * math.log(math.pi) - math.lgamma(d / 2 + 1)))
+        # vertices
+        self.Q = np.zeros((1024, self.dim))
+        self.node_mode: list[int] = []
+        self.mode_vertices: dict[int, list[int]] = {}
+        self.bridge: dict[int, tuple[int, object]] = {}     # transition vertex -> (bridge, action)
+        self.goals: set[int] = set()
+        # modes
+        self.modes: list[Mode] = []
+        self.depth: dict[int, int] = {}
+        self.reachable: list[int] = []
+        self.transitions: dict[int, list[Transition]] = {}
+        self.plan: list | None = None
+        self.plan_transitions: list[Transition] = []
+        self.plans_exhausted = False
+        # batches
+        self.batch = 0
+        self.batch_budget = options.batch_budget
+        self.cap = 0
+        self.queue: deque[int] = deque()
+        self.frontier: list[int] = []
+        self.sampled: set[int] = set()
+        self.no_budget = True
+        self.tried = False
+        # search
+        self.edge_ok: dict[tuple[int, int], bool] = {}
+        self._invalid: set[tuple[int, int]] = set()         # blacklisted edges
+        self._nn: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.best_cost = math.inf
+        self.best_path: list[int] | None = None
+        self.trace: list[tuple[float, float]] = []
+        self._search_costs: list[float] = []
+        self._graph_size = -1
+        self._progress: list[int] = [0]
+        self.on_solution = None          # callback(result) at every improved solution
+        self.counts = {"batches": 0, "task_plans": 0, "samples": 0, "projections": 0,
+                       "transitions": 0, "transition_failures": 0, "edges_checked": 0,
+                       "edges_invalid": 0, "searches": 0, "evidence": 0}
+        self._t0 = time.perf_counter()
+
+    @classmethod
+    def from_options(cls, problem: PlanningProblem, seed: int = 0,
+                     overrides: dict | None = None) -> "OptimalPlanner":
+        """The registry's factory: ``batch_size``, ``batch_budget``, ``min_steps``,
+        ``max_steps`` from the run configuration (a tmit-star spec or a manifest's
+        [planner]); the command line's ``batch_size``, ``rewire``, ``first_solution`` and
+        ``until_converged`` win. E825 for a value out of range."""
+        config = problem.world.config
+        params = dict(config.params) if config is not None else {}
+        over = {k: v for k, v in (overrides or {}).items() if v is not None}
+        base = OptimalOptions()
+        opts = OptimalOptions(
+            batch_size=int(over.get("batch_size", params.get("batch_size", base.batch_size))),
+            batch_budget=int(params.get("batch_budget", base.batch_budget)),
+            rewire=float(over.get("rewire", base.rewire)),
+            first_solution=bool(over.get("first_solution", False)),
+            until_converged=bool(over.get("until_converged", False)),
+            min_steps=int(params.get("min_steps", base.min_steps)),
+            max_steps=int(params.get("max_steps", base.max_steps)))
+        for name, value, ok in (("batch size", opts.batch_size, opts.batch_size >= 1),
+                                ("batch budget", opts.batch_budget, opts.batch_budget >= 1),
+                                ("rewire factor", opts.rewire, opts.rewire > 0)):
+            if not ok:
+                raise InputError(error("E825", f"{name} {value} is out of range", None,
+                                       "batch size and budget >= 1, rewire factor > 0"))
+        return cls(problem, seed=seed, options=opts)
+
+    # ---- vertices and modes ----------------------------------------------------------------
+    def _add_vertex(self, q: np.ndarray, mode: Mode) -> int:
+        i = len(self.node_mode)
+        if i == len(self.Q):
+            self.Q = np.concatenate([self.Q, np.zeros_like(self.Q)])
+        self.Q[i] = q
+        self.node_mode.append(mode.id)
+        self.mode_vertices[mode.id].append(i)
+        return i
+
+    def _mode(self, sym: int, poses, held, parent: Mode, action) -> tuple[Mode, bool]:
+        """The known mode with this symbolic state and pose set (1e-3), or a new one."""
+        for m in self.modes:
+            if m.sym == sym and _same_poses(m, poses, held):
+                return m, False
+        m = self.p.make_mode(len(self.modes), sym, poses, held, parent.id, action)
+        self._add_mode(m, self.depth[parent.id] + 1)
+        return m, True
+
+    def _add_mode(self, mode: Mode, depth: int) -> None:
+        self.modes.append(mode)
+        self.mode_vertices[mode.id] = []
+        self.depth[mode.id] = depth
+        self.reachable.append(mode.id)
+
+    def _goal_mode(self, mode: Mode) -> bool:
+        return self.p.ground.goal.holds(mode.sym)
+
+    # ---- task plans --------------------------------------------------------------------------
+    def _new_task_plan(self, deadline: float) -> bool:
+        """Learn from the last plan (exclusion, blockers) and ask for the next one; False when
+        there is none (the graph keeps growing with the transitions known)."""
+        t = time.perf_counter()
+        try:
+            if self.tp is None:
+                self.tp = TaskPlanner(self.p.ground, geometric=True)
+            elif self.plan is not None:
+                self._learn()
+            if self.plans_exhausted:
+                return False
+            res = self.tp.next_plan(self.opt.max_steps, max(0.0, deadline - time.perf_counter()),
+                                    min_steps=self.opt.min_steps)
+        finally:
+            self.p.timers.task_planning += time.perf_counter() - t
+        if res.status != SOLVED:
+            self.plans_exhausted = res.status != "timeout"
+            self.plan = None
+            return False
+        self.counts["task_plans"] += 1
+        self.plan = list(res.actions)
+        self.plan_transitions = []
+        sym = self.p.ground.init
+        for action in self.plan:
+            to = self.p.ground.apply(sym, action)
+            self.plan_transitions.append(self._transition(sym, action, to))
+            sym = to
+        if self.p.goal_formula() is not None:
+            self._transition(sym, None, sym)
+        self.batch_budget = self.opt.batch_budget
+        return True
+
+    def _transition(self, sym: int, action, to: int) -> Transition:
+        known = self.transitions.setdefault(sym, [])
+        for tr in known:
+            if tr.action is action and tr.to_sym == to:
+                return tr
+        tr = Transition(sym, action, to)
+        known.append(tr)
+        return tr
+
+    def _learn(self) -> None:
+        """Exclude the last plan's prefix through its first transition without a success (all
+        of it if every one succeeded) and pin the blockers its transitions showed."""
+        plan, trs = self.plan, self.plan_transitions
+        k = next((i for i, tr in enumerate(trs) if tr.successes == 0), len(trs))
+        for i, tr in enumerate(trs[:k + 1]):
+            lits = ([(lit, True) for lit in tr.action.pre_geometric] if tr.successes else
+                    [(lit, False) for lit in self._false_literals(tr)])
+            for lit, value in lits:
+                if self.tp.add_evidence(plan[:i], lit, value):
+                    self.counts["evidence"] += 1
+        self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
+        self.plan = None
+
+    # ---- batches -----------------------------------------------------------------------------
+    def _new_batch(self) -> None:
+        self.batch += 1
+        self.counts["batches"] += 1
+        self.batch_budget -= 1
+        self.cap += self.opt.cap_increment
+        self.sampled = set()
+        self.queue = deque(self.reachable)
+        self.frontier = []
+        self.no_budget = True
+        self.tried = False
+
+    def _radius(self, n: int) -> float:
+        """PRM*'s connection radius for n samples of a mode (tmit-star's transition test)."""
+        n = max(n, 2)
+        d = self.dim
+        return float(self.opt.rewire * 2.0 * math.exp(
+            (math.log1p(1.0 / d) + self._log_ratio + math.log(math.log(n) / n)) / d))
+
+    def _sample_modes(self, deadline: float) -> bool:
+        """Sample the modes of the current batch until the batch is done (True) or a goal mode
+        was reached (False: the batch resumes next time)."""
+        while (self.frontier or self.queue) and time.perf_counter() < deadline:
+            mid = self.frontier.pop() if self.frontier else self.queue.popleft()
+            if mid in self.sampled:
+                continue
+            self.sampled.add(mid)
+            if self._sample_mode(self.modes[mid]):
+                return False
+        return not (self.frontier or self.queue)
+
+    def _uniform_valid(self, mode: Mode, n: int) -> np.ndarray:
+        p = self.p
+        got, tries = [], 0
+        while sum(len(g) for g in got) < n and tries < 50:
+            tries += 1
+            t = time.perf_counter()
+            Q = p.uniform(self.rng, 2 * n)
+            p.timers.sampling += time.perf_counter() - t
+            got.append(Q[p.valid_batch(mode, Q)])
+            self.counts["samples"] += len(Q)
+        return np.concatenate(got)[:n] if got else np.zeros((0, self.dim))
+
+    def _sample_mode(self, mode: Mode) -> bool:
+        """A batch of samples in ``mode`` and the transitions they reach; True if a goal mode
+        (or goal vertex) was reached."""
+        p = self.p
+        Q = self._uniform_valid(mode, self.opt.batch_size)
+        ids = [self._add_vertex(q, mode) for q in Q]
+        radius = self._radius(len(self.mode_vertices[mode.id]))
+        reached = False
+        for tr in self.transitions.get(mode.sym, ()):
+            if not self._budget(tr):
+                continue
+            self.no_budget = False
+            dist = p.distances(mode, tr.action, Q)
+            near = np.nonzero(dist < radius)[0]
+            if not len(near):
+                continue
+            self.tried = True
+            if tr.action is not None and not p.has_geometry(tr.action):
+                # a purely discrete action happens wherever the robot is
+                for i in near:
+                    if not self._budget(tr):
+                        break
+                    reached |= self._succeed(tr, mode, ids[i], Q[i])
+                continue
+            for lo in range(0, len(near), 16):
+                if not self._budget(tr):
+                    break
+                starts = Q[near[lo:lo + 16]]
+                self.counts["projections"] += len(starts)
+                Qp, holds, dist_p = p.project_raw(mode, tr.action, starts)
+                ok = holds.copy()
+                if ok.any():
+                    ok[ok] = p.valid_batch(mode, Qp[ok])
+                for q, h, good, d in zip(Qp, holds, ok, dist_p):
+                    if not self._budget(tr):
+                        break
+                    if good:
+                        reached |= self._succeed(tr, mode, None, p.wrap(q))
+                    else:
+                        self._fail(tr, mode, q, bool(h), float(d))
+        return reached
+
+    def _budget(self, tr: Transition) -> bool:
+        return tr.successes < min(self.opt.absolute_cap, self.cap)
+
+    def _succeed(self, tr: Transition, mode: Mode, vertex: int | None, q: np.ndarray) -> bool:
+        tr.successes += 1
+        self.counts["transitions"] += 1
+        v = self._add_vertex(q, mode) if vertex is None else vertex
+        if tr.action is None:
+            self.goals.add(v)
+            return True
+        new = self.p.successor_mode(mode, tr.action, q, len(self.modes))
+        succ, fresh = self._mode(new.sym, new.poses, new.held, mode, tr.action)
+        b = self._add_vertex(q, succ)
+        self.bridge[v] = (b, tr.action)
+        if fresh:
+            self.frontier.append(succ.id)
+        if self._goal_mode(succ) and self.p.goal_formula() is None:
+            self.goals.add(b)
+            return True
+        return False
+
+    def _fail(self, tr: Transition, mode: Mode, q: np.ndarray, held: bool,
+              distance: float) -> None:
+        """A failed attempt; the best one (smallest distance, the precondition false) is kept
+        for the blocker evidence :meth:`_learn` derives."""
+        tr.failures += 1
+        self.counts["transition_failures"] += 1
+        if tr.action is not None and not held and (tr.best_fail is None
+                                                   or distance < tr.best_fail[0]):
+            tr.best_fail = (distance, mode, q)
+
+    def _false_literals(self, tr: Transition) -> list:
+        """The geometric literals of ``tr``'s action that are false at its best failed
+        attempt (none if its precondition never failed there: only collisions did)."""
+        if tr.best_fail is None:
+            return []
+        _, mode, q = tr.best_fail
+        geo = self.p.geo_oracle(mode, q)
+        return [lit for lit in tr.action.pre_geometric
+                if geo(lit.predicate, lit.args) != lit.positive]
+
+    # ---- the graph and the search ------------------------------------------------------------
+    def _graph(self):
+        """The sparse graph (CSR of costs) of the current vertices: symmetrised k-nearest
+        neighbours inside each mode, blacklisted edges removed, transition edges directed."""
+        from scipy.sparse import csr_matrix
+
+        n = len(self.node_mode)
+        k = int(math.ceil(self.opt.rewire * (math.e + math.e / self.dim) * math.log(max(n, 2))))
+        rows, cols, vals = [], [], []
+        for mid, ids in self.mode_vertices.items():
+            if len(ids) < 2:
+                continue
+            nn, nc = self._neighbours(mid, k)
+            kk = min(k, len(ids) - 1)
+            ids = np.asarray(ids)
+            src = np.repeat(ids, kk)
+            dst = ids[nn[:, :kk].ravel()]
+            w = nc[:, :kk].ravel()
+            rows += [src, dst]
+            cols += [dst, src]
+            vals += [w, w]
+        if self.bridge:
+            src = np.fromiter(self.bridge, np.int64, len(self.bridge))
+            rows.append(src)
+            cols.append(np.array([self.bridge[v][0] for v in src], np.int64))
+            vals.append(np.zeros(len(src)))
+        if not rows:
+            return csr_matrix((n, n))
+        r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        key = r.astype(np.int64) * n + c
+        key, first = np.unique(key, return_index=True)
+        r, c, w = r[first], c[first], np.maximum(w[first], _BRIDGE)
+        if self._invalid:
+            bad = np.array(sorted(self._invalid), np.int64)
+            lo, hi = np.minimum(r, c), np.maximum(r, c)
+            keep = ~np.isin(lo * (1 << 32) + hi, bad[:, 0] * (1 << 32) + bad[:, 1])
+            r, c, w = r[keep], c[keep], w[keep]
+        return csr_matrix((w, (r, c)), shape=(n, n))
+
+    def _neighbours(self, mid: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
+        costs, sorted, at least ``k`` per vertex (fewer when the mode has fewer): kept between
+        searches and updated with the new vertices only (their costs to all, the old lists
+        merged with the new columns); rebuilt when k outgrows what is kept."""
+        ids = self.mode_vertices[mid]
+        X = self.Q[ids]
+        keep = min(k + 4, len(ids) - 1)
+        nn, nc = self._nn.get(mid, (np.zeros((0, 0), np.int64), np.zeros((0, 0))))
+        old = len(nn)
+        if old and nn.shape[1] < min(k, len(ids) - 1):
+            old = 0                                     # k grew past the lists: start over
+        new = np.arange(old, len(ids))
+        if len(new):
+            C = np.empty((len(new), len(ids)))
+            step = max(1, int(2e6 // (len(ids) * self.dim)))   # bounds the (r, N, n) block
+            for lo in range(0, len(new), step):
+                C[lo:lo + step] = self.p.cost(X[None], X[new[lo:lo + step], None])
+            C[np.arange(len(new)), new] = np.inf
+            top = np.argsort(C, axis=1, kind="stable")[:, :keep]
+            rows_new = (top, np.take_along_axis(C, top, 1))
+            if old:
+                cand = np.concatenate([nn, np.broadcast_to(new, (old, len(new)))], 1)
+                cost = np.concatenate([nc, C[:, :old].T], 1)
+                order = np.argsort(cost, axis=1, kind="stable")[:, :keep]
+                nn = np.concatenate([np.take_along_axis(cand, order, 1), _pad(rows_new[0], keep)])
+                nc = np.concatenate([np.take_along_axis(cost, order, 1),
+                                     _pad(rows_new[1], keep, np.inf)])
+            else:
+                nn, nc = rows_new
+            self._nn[mid] = (nn, nc)
+        return nn, nc
+
+    def _search(self) -> bool:
+        """Reverse Dijkstra for h, then the forward lazy A*; True if the best cost improved."""
+        from scipy.sparse.csgraph import dijkstra
+
+        if not self.goals or len(self.node_mode) == self._graph_size:
+            return False
+        t = time.perf_counter()
+        self.counts["searches"] += 1
+        g = self._graph()
+        h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(self.goals), min_only=True)
+        improved = self._forward(g, h)
+        self._graph_size = len(self.node_mode)
+        self.p.timers.search += time.perf_counter() - t
+        return improved
+
+    def _forward(self, g, h: np.ndarray) -> bool:
+        indptr, ind, data = g.indptr, g.indices, g.data
+        start = 0
+        if not np.isfinite(h[start]):
+            return False
+        heap = [(h[start], 0.0, 0, start, -1)]
+        closed: dict[int, int] = {}
+        count = 0
+        found = None
+        deepest = start
+        while heap:
+            f, gv, _, v, u = heapq.heappop(heap)
+            if f >= self.best_cost - 1e-12:
+                break
+            if v in closed:
+                continue
+            if u >= 0 and not self._valid(u, v):
+                continue
+            closed[v] = u
+            if v in self.goals:
+                found = (v, gv)
+                break
+            if self.depth[self.node_mode[v]] > self.depth[self.node_mode[deepest]]:
+                deepest = v
+            for a in range(indptr[v], indptr[v + 1]):
+                w = int(ind[a])
+                if w in closed or not np.isfinite(h[w]):
+                    continue
+                ng = gv + float(data[a])
+                if ng + h[w] < self.best_cost:
+                    count += 1
+                    heapq.heappush(heap, (ng + h[w], ng, count, w, v))
+        if found is None:
+            if self.best_path is None:
+                self._progress = _chain(closed, deepest)
+            return False
+        v, cost = found
+        path = _chain(closed, v)
+        self.best_cost, self.best_path = cost, path
+        self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
+        return True
+
+    def _valid(self, u: int, v: int) -> bool:
+        """Is the edge u -> v collision-free (checked once; transition edges always are)?"""
+        if self.bridge.get(u, (None,))[0] == v:
+            return True
+        key = _key(u, v)
+        ok = self.edge_ok.get(key)
+        if ok is None:
+            self.counts["edges_checked"] += 1
+            mode = self.modes[self.node_mode[u]]
+            a, b = self.Q[u], self.Q[v]
+            # most edges that fail show it at a coarse step already (a state of the segment
+            # collides): an eighth of the states first, then every one
+            ok = self.p.motion(mode, a, b, 8 * self.opt.resolution) >= 1.0 and \
+                self.p.motion(mode, a, b, self.opt.resolution) >= 1.0
+            self.edge_ok[key] = ok
+            if not ok:
+                self.counts["edges_invalid"] += 1
+                self._invalid.add(key)
+        return ok
+
+    # ---- the loop ----------------------------------------------------------------------------
+    def solve(self, time_limit: float, progress=None) -> OptimalResult:
+        p = self.p
+        self._t0 = start = time.perf_counter()
+        deadline = start + time_limit
+        self._add_mode(p.initial, 0)
+        root = self._add_vertex(p.q0, p.initial)
+        status = "partial"
+        try:
+            if self._goal_mode(p.initial) and (p.goal_formula() is None
+                                               or p.holds(p.initial, None, p.q0)):
+                self.goals.add(root)
+                self.best_cost, self.best_path = 0.0, [root]
+                self.trace.append((0.0, 0.0))
+            else:
+                self._new_task_plan(deadline)
+                self._new_batch()
+            while self.best_path != [root] and time.perf_counter() < deadline:
+                done = self._sample_modes(deadline)
+                if self._search():
+                    self._report()
+                    if self.opt.first_solution:
+                        break
+                if self.best_path is not None:
+                    self._search_costs.append(self.best_cost)
+                    if self._converged():
+                        break
+                if done:
+                    if self.no_budget or (self.tried and self.batch_budget <= 0):
+                        self._new_task_plan(deadline)
+                    self._new_batch()
+                if progress is not None:
+                    progress(self)
+        except KeyboardInterrupt:
+            status = "interrupted"
+            self.counts["interrupted"] = True
+        return self._result(status, time.perf_counter() - start)
+
+    def _converged(self) -> bool:
+        n = self.opt.converged_solutions
+        if not self.opt.until_converged or len(self._search_costs) < n:
+            return False
+        last = self._search_costs[-n:]
+        return max(last) - min(last) <= self.opt.converged_ratio * min(last)
+
+    def _report(self) -> None:
+        if self.on_solution is not None:
+            self.on_solution(self._result("solved", time.perf_counter() - self._t0))
+
+    def _result(self, status: str, seconds: float) -> OptimalResult:
+        solved = self.best_path is not None
+        ids = self.best_path if solved else self._progress
+        path = []
+        for k, v in enumerate(ids):
+            nxt = ids[k + 1] if k + 1 < len(ids) else None
+            b = self.bridge.get(v)
+            action = b[1] if b is not None and b[0] == nxt else None
+            path.append((self.Q[v].copy(), self.modes[self.node_mode[v]], action))
+        stats = dict(self.counts, seconds=round(seconds, 4), nodes=len(self.node_mode),
+                     modes=len(self.modes), cost=round(self.best_cost, 6) if solved else None,
+                     cost_trace=[list(x) for x in self.trace],
+                     first_solution_seconds=self.trace[0][0] if self.trace else None,
+                     time=self.p.timers.as_dict())
+        if solved:
+            status = "solved"
+        return OptimalResult(status, path, stats, self.best_cost)
+
+def _pad(a: np.ndarray, width: int, value=0) -> np.ndarray:
+    """``a`` (r, w <= width) padded on the right to ``width`` columns."""
+    if a.shape[1] >= width:
+        return a[:, :width]
+    return np.concatenate([a, np.full((len(a), width - a.shape[1]), value, a.dtype)], 1)
+
+
+def _chain(parents: dict[int, int], v: int) -> list[int]:
+    """The path from the search's root to v through the parents."""
+    path = [v]
+    while parents[path[-1]] >= 0:
+        path.append(parents[path[-1]])
+    return path[::-1]
+
+
+def _key(u: int, v: int) -> tuple[int, int]:
+    return (u, v) if u < v else (v, u)
+
+
+def _same_poses(m: Mode, poses, held) -> bool:
+    if set(m.held) != set(held) or set(m.poses) != set(poses):
+        return False
+    for name, (frame, T) in held.items():
+        f2, T2 = m.held[name]
+        if f2 != frame or not np.allclose(T, T2, atol=1e-3):
+            return False
+    return all(np.allclose(poses[name], m.poses[name], atol=1e-3) for name in poses)
+
+
+__all__ = ["OptimalPlanner", "OptimalOptions", "OptimalResult", "Transition"]
