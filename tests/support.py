@@ -87,3 +87,11 @@ def pos_of(text: str, needle: str, nth: int = 0) -> tuple[int, int]:
     for _ in range(nth + 1):
         i = text.index(needle, i + 1)
     return SourceFile("x", text).line_col(i)
+
+
+def run_tmpc(*args, cwd=None):
+    """``tmpc ARGS`` in a fresh interpreter (text output captured)."""
+    import subprocess
+    import sys
+    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=600)

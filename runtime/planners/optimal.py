@@ -222,8 +222,8 @@ class OptimalPlanner:
                 self._learn()
             if self.plans_exhausted:
                 return False
-            res = self.tp.next_plan(self.opt.max_steps, max(0.0, deadline - time.perf_counter()),
-                                    min_steps=self.opt.min_steps)
+            left = None if math.isinf(deadline) else max(0.0, deadline - time.perf_counter())
+            res = self.tp.next_plan(self.opt.max_steps, left, min_steps=self.opt.min_steps)
         finally:
             self.p.timers.task_planning += time.perf_counter() - t
         if res.status != SOLVED:
@@ -480,43 +480,13 @@ class OptimalPlanner:
         return improved
 
     def _forward(self, g, h: np.ndarray) -> bool:
-        indptr, ind, data = g.indptr, g.indices, g.data
-        start = 0
-        if not np.isfinite(h[start]):
+        depth = np.array([self.depth[m] for m in self.node_mode])
+        cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid, self.best_cost)
+        if path is None:
+            if self.best_path is None and closed:
+                reached = np.fromiter(closed, np.int64, len(closed))
+                self._progress = _chain(closed, int(reached[np.argmax(depth[reached])]))
             return False
-        heap = [(h[start], 0.0, 0, start, -1)]
-        closed: dict[int, int] = {}
-        count = 0
-        found = None
-        deepest = start
-        while heap:
-            f, gv, _, v, u = heapq.heappop(heap)
-            if f >= self.best_cost - 1e-12:
-                break
-            if v in closed:
-                continue
-            if u >= 0 and not self._valid(u, v):
-                continue
-            closed[v] = u
-            if v in self.goals:
-                found = (v, gv)
-                break
-            if self.depth[self.node_mode[v]] > self.depth[self.node_mode[deepest]]:
-                deepest = v
-            for a in range(indptr[v], indptr[v + 1]):
-                w = int(ind[a])
-                if w in closed or not np.isfinite(h[w]):
-                    continue
-                ng = gv + float(data[a])
-                if ng + h[w] < self.best_cost:
-                    count += 1
-                    heapq.heappush(heap, (ng + h[w], ng, count, w, v))
-        if found is None:
-            if self.best_path is None:
-                self._progress = _chain(closed, deepest)
-            return False
-        v, cost = found
-        path = _chain(closed, v)
         self.best_cost, self.best_path = cost, path
         self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
         return True
@@ -608,6 +578,39 @@ class OptimalPlanner:
             status = "solved"
         return OptimalResult(status, path, stats, self.best_cost)
 
+def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.inf):
+    """A* over the CSR graph ``g`` (edge costs) from ``start`` to any of ``goals`` with a
+    consistent heuristic ``h`` (inf: no goal reachable), checking an edge with ``valid(u, v)``
+    only when the entry that uses it is popped (lazy A*), and only for paths cheaper than
+    ``bound``. Returns (cost, path, parents): the cheapest path whose edges are all valid, or
+    (inf, None, parents) when none beats ``bound``; ``parents`` maps every closed vertex to its
+    parent (-1 for the start)."""
+    indptr, ind, data = g.indptr, g.indices, g.data
+    closed: dict[int, int] = {}
+    if not np.isfinite(h[start]):
+        return math.inf, None, closed
+    heap = [(float(h[start]), 0.0, 0, start, -1)]
+    count = 0
+    while heap:
+        f, gv, _, v, u = heapq.heappop(heap)
+        if f >= bound - 1e-12:
+            break
+        if v in closed or (u >= 0 and not valid(u, v)):
+            continue
+        closed[v] = u
+        if v in goals:
+            return gv, _chain(closed, v), closed
+        for a in range(indptr[v], indptr[v + 1]):
+            w = int(ind[a])
+            if w in closed or not np.isfinite(h[w]):
+                continue
+            ng = gv + float(data[a])
+            if ng + h[w] < bound:
+                count += 1
+                heapq.heappush(heap, (ng + h[w], ng, count, w, v))
+    return math.inf, None, closed
+
+
 def _pad(a: np.ndarray, width: int, value=0) -> np.ndarray:
     """``a`` (r, w <= width) padded on the right to ``width`` columns."""
     if a.shape[1] >= width:
@@ -637,4 +640,4 @@ def _same_poses(m: Mode, poses, held) -> bool:
     return all(np.allclose(poses[name], m.poses[name], atol=1e-3) for name in poses)
 
 
-__all__ = ["OptimalPlanner", "OptimalOptions", "OptimalResult", "Transition"]
+__all__ = ["OptimalPlanner", "OptimalOptions", "OptimalResult", "Transition", "lazy_astar"]

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, EXAMPLES
+from tests.support import CLUTTER, EXAMPLES, run_tmpc
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
@@ -93,9 +93,7 @@ def test_time_limit_gives_partial_progress(clutter_problem_1):
 
 # ---- the command line and its errors ------------------------------------------------------------
 
-def _tmpc(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *map(str, args)],
-                          capture_output=True, text=True, cwd=cwd, timeout=600)
+_tmpc = run_tmpc
 
 
 def _world_dir(tmp_path, scene: dict, problem: str) -> Path:

@@ -1,0 +1,218 @@
+"""The ``optimal`` planner (thesis ch. 4): its search against brute force on small graphs, the
+reverse heuristic's admissibility, blockers steering the task plans, anytime cost, determinism
+and plans checked by the independent validator."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from tests.support import CLUTTER, run_tmpc
+from tmpc.runtime.planners.optimal import OptimalOptions, OptimalPlanner, Transition, lazy_astar
+
+# clutter_problem_1: the bundled 1-stick clutter problem, shared (tests/conftest.py)
+
+
+def _random_graph(rng, n: int, p: float):
+    """A random directed graph: symmetric in-mode style edges plus a few one-way ones."""
+    W = np.where(rng.random((n, n)) < p, rng.uniform(0.1, 3.0, (n, n)), 0.0)
+    W = np.triu(W, 1)
+    W = W + W.T
+    one_way = (rng.random((n, n)) < p / 4) & (W == 0)
+    W[one_way] = 1e-12 + rng.uniform(0, 0.5, one_way.sum())
+    np.fill_diagonal(W, 0.0)
+    return W
+
+
+def _floyd(W: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """All-pairs shortest paths over the edges with ``ok`` (brute force, independent of SciPy
+    and of the planner's search)."""
+    n = len(W)
+    D = np.where((W > 0) & ok, W, np.inf)
+    np.fill_diagonal(D, 0.0)
+    for k in range(n):
+        D = np.minimum(D, D[:, k, None] + D[None, k, :])
+    return D
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_lazy_search_finds_the_optimum_of_the_valid_edges(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(6, 30))
+    W = _random_graph(rng, n, float(rng.uniform(0.1, 0.4)))
+    invalid = (rng.random((n, n)) < 0.3) & (W > 0)
+    invalid = invalid | invalid.T                       # an edge fails in both directions
+    goals = set(rng.choice(np.arange(1, n), size=int(rng.integers(1, 4)), replace=False).tolist())
+    g = csr_matrix(W)
+    h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(goals), min_only=True)
+    checked = []
+
+    def valid(u, v):
+        checked.append((u, v))
+        return not invalid[u, v]
+
+    cost, path, _ = lazy_astar(g, h, 0, goals, valid)
+    best = min(_floyd(W, ~invalid)[0, list(goals)])
+    if math.isinf(best):
+        assert path is None
+        return
+    assert cost == pytest.approx(best, abs=1e-9)
+    assert path[0] == 0 and path[-1] in goals
+    assert all(W[a, b] > 0 and not invalid[a, b] for a, b in zip(path, path[1:]))
+    assert sum(W[a, b] for a, b in zip(path, path[1:])) == pytest.approx(cost, abs=1e-9)
+    # lazy: only edges of popped entries are checked, never one twice from the same parent
+    assert len(checked) == len(set(checked))
+    # nothing better than the bound: a bound at the optimum finds nothing
+    assert lazy_astar(g, h, 0, goals, valid, bound=best)[1] is None
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_reverse_heuristic_is_admissible_and_consistent(seed):
+    rng = np.random.default_rng(100 + seed)
+    n = 25
+    W = _random_graph(rng, n, 0.2)
+    invalid = (rng.random((n, n)) < 0.3) & (W > 0)
+    goals = [1, 2]
+    h = dijkstra(csr_matrix(W).T.tocsr(), directed=True, indices=goals, min_only=True)
+    true = _floyd(W, ~invalid)[:, goals].min(1)         # cost-to-go over the valid edges
+    assert (h <= true + 1e-9).all()
+    u, v = np.nonzero(W)
+    assert (h[u] <= W[u, v] + h[v] + 1e-9).all()
+
+
+def _solve(problem, seed, **opts):
+    time_limit = opts.pop("time_limit", 60.0)
+    planner = OptimalPlanner(problem, seed, OptimalOptions(**opts))
+    return planner, planner.solve(time_limit)
+
+
+def _validate(problem, result, tmp_path, seed=0):
+    from tmpc.runtime.plans import plan_document, write_json_atomic
+    from tmpc.runtime.validate import validate_plan
+    doc = plan_document(problem, result, planner="optimal", seed=seed, input_path=str(CLUTTER),
+                        setup_seconds=0.0)
+    path = tmp_path / f"plan-{seed}.json"
+    write_json_atomic(path, doc)
+    return doc, validate_plan(problem.world, str(path))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_first_solutions_validate_and_are_deterministic(clutter_problem_1, tmp_path, seed):
+    _, a = _solve(clutter_problem_1, seed, first_solution=True)
+    assert a.status == "solved"
+    doc, report = _validate(clutter_problem_1, a, tmp_path, seed)
+    assert report.valid, report
+    assert [x.split()[0] for x in doc["actions"]] == ["(pickup", "(putdown"]
+    # the reported cost is the composite length of the written states
+    assert doc["stats"]["cost"] == pytest.approx(_composite(clutter_problem_1, doc["states"]),
+                                                 rel=1e-6)
+    _, b = _solve(clutter_problem_1, seed, first_solution=True)
+    assert [x[2] and x[2].name for x in a.path] == [x[2] and x[2].name for x in b.path]
+    assert np.array_equal(np.array([x[0] for x in a.path]), np.array([x[0] for x in b.path]))
+
+
+def _composite(problem, states) -> float:
+    """tmit-star's composite length (../shared/baselines/tmit-star/cost.py), recomputed here
+    from the plan's states: joints L2 + base xy + yaw the short way; unlike cost.py,
+    continuous joints go the short way too, as tmpc's motions do."""
+    model = problem.model
+    wraps = {n for n, w in zip(model.q_names, model.wraps) if w}
+    total = 0.0
+    for a, b in zip(states, states[1:]):
+        ja, jb = a["joints"], b["joints"]
+        d = [(jb[k] - ja[k] + math.pi) % (2 * math.pi) - math.pi if k in wraps else jb[k] - ja[k]
+             for k in ja]
+        total += math.sqrt(sum(x * x for x in d))
+        pa, pb = a["base_pose"]["translation"], b["base_pose"]["translation"]
+        total += math.hypot(pb[0] - pa[0], pb[1] - pa[1])
+        dy = abs(_yaw(b["base_pose"]["rotation"]) - _yaw(a["base_pose"]["rotation"]))
+        total += min(dy, 2 * math.pi - dy)
+    return total
+
+
+def _yaw(q) -> float:
+    x, y, z, w = q
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def test_anytime_cost_never_increases_and_the_last_plan_is_valid(clutter_problem_1, tmp_path):
+    seen = []
+    planner = OptimalPlanner(clutter_problem_1, 3, OptimalOptions())
+    planner.on_solution = lambda r: seen.append((r.cost, len(r.path)))
+    result = planner.solve(6.0)
+    assert result.status == "solved"
+    costs = [c for _, c in result.stats["cost_trace"]]
+    times = [t for t, _ in result.stats["cost_trace"]]
+    assert costs == sorted(costs, reverse=True) and len(set(costs)) == len(costs)
+    assert times == sorted(times)
+    assert [c for c, _ in seen] == pytest.approx(costs)
+    assert result.cost == pytest.approx(costs[-1])
+    _, report = _validate(clutter_problem_1, result, tmp_path, 3)
+    assert report.valid, report
+
+
+def test_blockers_change_which_task_plans_come_next(clutter_problem_1):
+    """A first transition that never succeeded, its literal false at its best attempt: the
+    planner pins that blocker, and the task plans that follow differ from those of excluding
+    the prefix alone."""
+    p = clutter_problem_1
+
+    def plans_after(with_evidence: bool) -> list[list[str]]:
+        planner = OptimalPlanner(p, 0, OptimalOptions())
+        planner._add_mode(p.initial, 0)
+        assert planner._new_task_plan(math.inf)
+        first = planner.plan_transitions[0]
+        assert first.action.pre_geometric              # pickup: (at gripper stick)
+        first.failures = 3
+        if with_evidence:                               # the gripper is far from the stick at q0
+            first.best_fail = (1.0, p.initial, p.q0)
+        planner._learn()
+        assert planner.counts["evidence"] == (1 if with_evidence else 0)
+        out = []
+        for _ in range(3):
+            res = planner.tp.next_plan(10)
+            out.append([a.name for a in res.actions])
+            planner.tp.exclude_plan(res.actions)
+        return out
+
+    plain, pinned = plans_after(False), plans_after(True)
+    assert plain != pinned
+    # the pinned literal is false in the initial mode: no plan starts with an action needing it
+    first = plain[0]
+    needs = OptimalPlanner(p, 0)
+    needs._add_mode(p.initial, 0)
+    needs._new_task_plan(math.inf)
+    lit = needs.plan[0].pre_geometric[0]
+    ground = p.ground
+    for plan in pinned:
+        action = ground.find_action(*plan[0].strip("()").split())
+        assert lit not in action.pre_geometric, (plan, first)
+
+
+def test_transition_caps_follow_tmit_star(clutter_problem_1):
+    planner = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(absolute_cap=5))
+    tr = Transition(0, None, 0)
+    planner.cap = 1
+    assert planner._budget(tr)
+    tr.successes = 1
+    assert not planner._budget(tr)                      # the batch's cap
+    planner.cap = 9
+    tr.successes = 5
+    assert not planner._budget(tr)                      # the absolute cap
+
+
+def test_cli_optimal_writes_a_valid_plan_with_its_cost_trace(tmp_path):
+    out = tmp_path / "plan.json"
+    r = run_tmpc("run", CLUTTER, "--planner", "optimal", "--time-limit", "3", "-o", out, "-q")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(out.read_text())
+    assert doc["planner"] == "optimal" and doc["status"] == "solved"
+    trace = doc["stats"]["cost_trace"]
+    assert trace and doc["stats"]["cost"] == trace[-1][1]
+    r = run_tmpc("validate", CLUTTER, out)
+    assert r.returncode == 0, r.stdout + r.stderr
