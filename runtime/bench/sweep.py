@@ -49,6 +49,8 @@ from tmpc.runtime.validate import validate_plan
 FORMAT = "tmpc-bench/1"
 #: the timers a run's time split reports (PlanningProblem.timers); the rest of a run is "other"
 SPLIT = ("sampling", "projection", "collision", "heuristic", "compile")
+#: an anytime planner's best cost is recorded at these seconds of planning
+COST_TIMES = (1, 5, 10, 30, 60)
 #: OMPL's planner status enum (ompl::base::PlannerStatus, in its order): a log's ``status ENUM``
 #: is an index into it, so our runs mix with OMPL's own in one database
 OMPL_STATUS = ("Unknown status", "Invalid start", "Invalid goal", "Unrecognized goal type",
@@ -181,6 +183,13 @@ class Bench:
             iterations=s.get("iterations"), counts={k: v for k, v in s.items()
                                                     if isinstance(v, (int, float))})
         rec["n_actions"] = len(rec["actions"])
+        trace = s.get("cost_trace")
+        if trace is not None:                          # an anytime planner
+            rec["first_solution_seconds"] = s.get("first_solution_seconds")
+            rec["cost"] = s.get("cost")
+            rec["cost_trace"] = trace
+            rec["cost_at"] = {str(t): cost_at(trace, t) for t in COST_TIMES
+                              if t <= self.args.time_limit}
         rec["valid"] = None
         if self.args.validate and rec["solved"]:
             self._validate(problem, prec, result, rec)
@@ -345,7 +354,9 @@ def summarize(prec: dict, planner: str, runs: list[dict], limit: float) -> dict:
     means fewer than half solved); plan and path lengths are over solved runs; the time split is
     the mean share of each activity in a run's planning time."""
     solved = [r for r in runs if r["solved"]]
-    times = [r["solve_seconds"] if r["solved"] else math.inf for r in runs]
+    # an anytime planner runs to the limit: its time is that of its first solution
+    times = [r.get("first_solution_seconds") or r["solve_seconds"] if r["solved"] else math.inf
+             for r in runs]
     finished = [r for r in runs if r["status"] != "crash" and r.get("solve_seconds")]
     shares = {k: round(float(np.mean([r["time"][k] / r["solve_seconds"] for r in finished])), 4)
               if finished else None for k in (*SPLIT, "other")}
@@ -367,7 +378,16 @@ def summarize(prec: dict, planner: str, runs: list[dict], limit: float) -> dict:
         "invalid": sum(r.get("valid") is False for r in runs),
         "crashed": sum(r["status"] == "crash" for r in runs),
         "mean_load": round(float(np.mean([r["load_before"][0] for r in runs])), 2),
+        "median_cost_at": ({t: _num(quantile([math.inf if r["cost_at"].get(t) is None
+                                              else r["cost_at"][t] for r in runs], 0.5))
+                            for t in runs[0]["cost_at"]} if "cost_at" in runs[0] else None),
     }
+
+
+def cost_at(trace: list, t: float) -> float | None:
+    """The best cost found within ``t`` seconds of planning (None: no solution yet)."""
+    got = [c for s, c in trace if s <= t]
+    return min(got) if got else None
 
 
 def _num(x: float):
@@ -400,6 +420,16 @@ def markdown_table(rows: list[dict], limit: float) -> str:
                      f"{t(r['median_seconds'])} | {t(r['q1_seconds'])}–{t(r['q3_seconds'])} | "
                      f"{ma} | {pl} | {split} | {setup} | {r['peak_rss_mib']:.0f} | "
                      f"{r['rss_growth_mib']:+.0f} | {inv} | {r['mean_load']:.1f} |")
+    anytime = [r for r in rows if r.get("median_cost_at")]
+    if anytime:
+        times = list(anytime[0]["median_cost_at"])
+        lines += ["", "| problem | planner | " + " | ".join(
+            f"median cost at {t} s" for t in times) + " |",
+            "|---|---|" + "---|" * len(times)]
+        for r in anytime:
+            lines.append(f"| {r['problem']} | {r['planner']} | " + " | ".join(
+                "—" if r["median_cost_at"].get(t) in (None, "inf") else
+                f"{r['median_cost_at'][t]:.2f}" for t in times) + " |")
     return "\n".join(lines)
 
 

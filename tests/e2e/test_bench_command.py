@@ -322,6 +322,28 @@ def test_several_problems_one_log_each(clutter_problem_1, tmp_path, monkeypatch)
     assert not (tmp_path / "r.log").exists()
 
 
+def test_both_planners_and_the_optimal_ones_cost_over_time(clutter_problem_1, tmp_path,
+                                                            monkeypatch, capsys):
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import run_bench
+    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem_1)
+    code = run_bench(_args(tmp_path, planners="unified,optimal", seeds=1, time_limit=6.0,
+                           validate=True))
+    assert code == 0
+    doc = json.loads((tmp_path / "r.json").read_text())
+    runs = {r["planner"]: r for r in doc["runs"]}
+    assert runs["unified"]["solved"] and runs["optimal"]["solved"]
+    assert runs["optimal"]["valid"] is True
+    opt = runs["optimal"]
+    assert list(opt["cost_at"]) == ["1", "5"]           # the fixed times within the limit
+    trace = opt["cost_trace"]
+    assert opt["cost_at"]["5"] == min(c for t, c in trace if t <= 5)
+    assert opt["first_solution_seconds"] == trace[0][0] <= opt["solve_seconds"]
+    row = next(r for r in doc["summary"] if r["planner"] == "optimal")
+    assert row["median_seconds"] == pytest.approx(opt["first_solution_seconds"], abs=1e-3)
+    assert "median cost at 5 s" in capsys.readouterr().out
+
+
 # ---- bad input ---------------------------------------------------------------------------------
 def test_bad_input_fails_before_planning(tmp_path):
     from tmpc.runtime.cli.bench import run_bench
