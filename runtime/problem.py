@@ -381,6 +381,24 @@ class PlanningProblem:
             return 1.0
         return max(0.0, rep.t_first_collision - 1.0 / max(rep.steps, 1))
 
+    def motions_valid(self, mode: Mode, Q0: np.ndarray, Q1: np.ndarray, resolution: float,
+                      ends: bool = False) -> np.ndarray:
+        """Validity (k,) of the straight motions Q0[i] -> Q1[i] in ``mode``, all their states
+        in one batched check (no early stop: for many short motions the per-call cost, not the
+        states, dominates). ``ends``: check the end states too (else they are known valid)."""
+        segs = [self.collision.interpolate(a, b, resolution) for a, b in zip(Q0, Q1)]
+        if not ends:
+            segs = [s[1:-1] for s in segs]
+        lens = np.array([len(s) for s in segs])
+        if not lens.sum():
+            return np.ones(len(segs), bool)
+        t = time.perf_counter()
+        ok = np.asarray(self.collision.check_batch(np.concatenate(segs), poses=mode.poses,
+                                                   attached=mode.held))
+        self.timers.collision += time.perf_counter() - t
+        bad = np.add.reduceat(~ok, np.r_[0, np.cumsum(lens)[:-1]]) if len(ok) else 0
+        return np.where(lens > 0, bad == 0, True)
+
     def uniform(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return rng.uniform(self.lower, self.upper, (n, len(self.lower)))
 

@@ -248,10 +248,12 @@ class FirstPass:
         self._plans: dict = {}
         self._tables: dict = {}
 
-    def plan(self, place: "dict[int, Placement]", allowed: np.ndarray) -> Plan:
-        """The plan of a batch (cached: motions reuse it)."""
-        key = (tuple((b, pl.frame, pl.T.tobytes(), pl.held) for b, pl in sorted(place.items())),
-               allowed.tobytes())
+    def plan(self, place: "dict[int, Placement]", allowed: np.ndarray, key=None) -> Plan:
+        """The plan of a batch (cached: motions reuse it). ``key``: the world's key of this
+        state (:meth:`CollisionWorld._placed`), else one is made from the placements."""
+        key = ("state", key) if key is not None else \
+            (tuple((b, pl.frame, pl.T.tobytes(), pl.held) for b, pl in sorted(place.items())),
+             allowed.tobytes())
         if key not in self._plans:
             if len(self._plans) >= 16:
                 self._plans.pop(next(iter(self._plans)))

@@ -176,6 +176,11 @@ class CollisionWorld:
         self._first_pass_enabled = first_pass
         self._first_pass = None
         self.stats = PassStats()
+        #: placements of recent states by content (batch and motion calls repeat them)
+        self._placements: dict = {}
+        #: the state key whose non-moving objects' fcl transforms are set, and whether two of
+        #: them collide there (:meth:`_constant_collision`)
+        self._fixed: tuple | None = None
 
     # -- construction -------------------------------------------------------------------------
 
@@ -344,6 +349,25 @@ class CollisionWorld:
                 allowed[b, hand] = allowed[hand, b] = True
         return place, allowed
 
+    def _placed(self, poses, attached):
+        """(key, :meth:`placements`) of a state, remembered for the last 64 distinct states:
+        the key is the content of ``poses`` and ``attached``, so a caller may pass fresh or
+        mutated dicts. Input :meth:`placements` rejects gets its error, uncached."""
+        try:
+            key = (tuple((str(n), np.asarray(T, float).tobytes())
+                         for n, T in sorted((poses or {}).items())),
+                   tuple((str(n), str(v[0]), np.asarray(v[1], float).tobytes())
+                         for n, v in sorted((attached or {}).items())))
+        except (TypeError, ValueError, IndexError):
+            return None, self.placements(poses, attached)
+        got = self._placements.get(key)
+        if got is None:
+            got = self.placements(poses, attached)
+            if len(self._placements) >= 64:
+                self._placements.pop(next(iter(self._placements)))
+            self._placements[key] = got
+        return key, got
+
     def _hand(self, frame: int) -> list[int]:
         """Bodies a held object may touch when held by ``frame``."""
         name = self.model.frames[frame]
@@ -434,6 +458,7 @@ class CollisionWorld:
     def _exact(self, Tg: np.ndarray, allowed, first_only: bool) -> dict[tuple[int, int], float]:
         """Exact check of one state from the world transforms of the dynamic geometries (Gd, 4,
         4): {(body a, body b): depth}."""
+        self._fixed = None                 # every dynamic geometry moves here
         for k, g in enumerate(self.dynamic):
             self._set(g, Tg[k])
         hits: dict[tuple[int, int], float] = {}
@@ -487,11 +512,12 @@ class CollisionWorld:
     def check_batch(self, Q, poses=None, attached=None) -> np.ndarray:
         """Validity (B,) bool of states Q (B, n) sharing the object poses and held objects."""
         Q = self._Q(Q)
-        place, allowed = self.placements(poses, attached)
+        key, (place, allowed) = self._placed(poses, attached)
         out = np.ones(len(Q), bool)
         if not len(Q):
             return out
-        for start, bad in self._invalid_states(Q, place, allowed, first_state_only=False):
+        for start, bad in self._invalid_states(Q, place, allowed, first_state_only=False,
+                                               key=key):
             out[start + bad] = False
         return out
 
@@ -505,8 +531,9 @@ class CollisionWorld:
             raise SceneError(error("E575", f"motion resolution {resolution} must be a finite "
                                    "number > 0", None, "e.g. 0.02 (rad or m per step)"))
         Q = self.interpolate(q0, q1, resolution)
-        place, allowed = self.placements(poses, attached)
-        for start, bad in self._invalid_states(Q, place, allowed, first_state_only=True):
+        key, (place, allowed) = self._placed(poses, attached)
+        for start, bad in self._invalid_states(Q, place, allowed, first_state_only=True,
+                                               key=key):
             if len(bad):
                 i = start + int(bad[0])
                 if not details:
@@ -531,9 +558,10 @@ class CollisionWorld:
             self._first_pass = FirstPass(self)
         return self._first_pass
 
-    def _invalid_states(self, Q, place, allowed, first_state_only: bool):
+    def _invalid_states(self, Q, place, allowed, first_state_only: bool, key=None):
         """Yield (chunk start, sorted indices of colliding states in the chunk); with
-        ``first_state_only``, stop after the first colliding state."""
+        ``first_state_only``, stop after the first colliding state. ``key``: the state's
+        :meth:`_placed` key (its batch plan and fixed objects are then reused)."""
         fp = self.first_pass()
         if fp is None:
             for start in range(0, len(Q), CHUNK):
@@ -548,8 +576,8 @@ class CollisionWorld:
                 if bad and first_state_only:
                     return
             return
-        plan = fp.plan(place, allowed)
-        if self._constant_collision(plan, place):
+        plan = fp.plan(place, allowed, key)
+        if self._constant_collision(plan, place, key):
             yield 0, np.arange(1 if first_state_only else len(Q))
             return
         for start in range(0, len(Q), CHUNK):
@@ -560,14 +588,19 @@ class CollisionWorld:
             if len(bad) and first_state_only:
                 return
 
-    def _constant_collision(self, plan, place) -> bool:
+    def _constant_collision(self, plan, place, key=None) -> bool:
         """Set the world poses of objects that stay put in the batch; True if two of them
-        collide (then every state of the batch is invalid)."""
+        collide (then every state of the batch is invalid). Nothing to do when they are set
+        for this state already (``key``, :meth:`_placed`)."""
+        if key is not None and self._fixed is not None and self._fixed[0] == key:
+            return self._fixed[1]
         frames, local = self.geom_frames(place)
         for k, g in enumerate(self.dynamic):
             if frames[k] < 0:
                 self._set(g, local[k])
-        return any(self._counts(self._depth(ga, gb)) for ga, gb in plan.ff)
+        hit = any(self._counts(self._depth(ga, gb)) for ga, gb in plan.ff)
+        self._fixed = None if key is None else (key, hit)
+        return hit
 
     def _confirm(self, cand, plan, first_state_only: bool) -> np.ndarray:
         """Exact fcl on the candidate pairs of the first pass; the sorted colliding states."""

@@ -71,6 +71,7 @@ class OptimalOptions:
     batch_budget: int = 5              # batches per task plan (tmit-star: 5)
     rewire: float = 1.0                # k-nearest rewire factor
     resolution: float = 0.05           # motion-check resolution (the validator's default)
+    coarse: float = 8.0                # the search checks edges at coarse x resolution first
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
@@ -143,6 +144,7 @@ class OptimalPlanner:
         self.edge_ok: dict[tuple[int, int], bool] = {}
         self._invalid: set[tuple[int, int]] = set()         # blacklisted edges
         self._nn: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._fine: dict[tuple[int, int], bool] = {}        # edges checked at the resolution
         self.best_cost = math.inf
         self.best_path: list[int] | None = None
         self.trace: list[tuple[float, float]] = []
@@ -152,7 +154,7 @@ class OptimalPlanner:
         self.on_solution = None          # callback(result) at every improved solution
         self.counts = {"batches": 0, "task_plans": 0, "samples": 0, "projections": 0,
                        "transitions": 0, "transition_failures": 0, "edges_checked": 0,
-                       "edges_invalid": 0, "searches": 0, "evidence": 0}
+                       "edges_confirmed": 0, "edges_invalid": 0, "searches": 0, "evidence": 0}
         self._t0 = time.perf_counter()
 
     @classmethod
@@ -480,36 +482,78 @@ class OptimalPlanner:
         return improved
 
     def _forward(self, g, h: np.ndarray) -> bool:
+        """Lazy A* with edges checked at the coarse step; the edges of the path it finds are
+        then checked at the full resolution (all at once) and, if one fails, it is blacklisted
+        and the search goes on: every edge of a reported path is valid at the resolution."""
         depth = np.array([self.depth[m] for m in self.node_mode])
-        cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid, self.best_cost)
-        if path is None:
-            if self.best_path is None and closed:
-                reached = np.fromiter(closed, np.int64, len(closed))
-                self._progress = _chain(closed, int(reached[np.argmax(depth[reached])]))
-            return False
+        while True:
+            cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid, self.best_cost,
+                                            self._check)
+            if path is None:
+                if self.best_path is None and closed:
+                    reached = np.fromiter(closed, np.int64, len(closed))
+                    self._progress = _chain(closed, int(reached[np.argmax(depth[reached])]))
+                return False
+            if self._confirm(path):
+                break
         self.best_cost, self.best_path = cost, path
         self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
         return True
 
-    def _valid(self, u: int, v: int) -> bool:
-        """Is the edge u -> v collision-free (checked once; transition edges always are)?"""
+    def _confirm(self, path: list[int]) -> bool:
+        """Check the edges of ``path`` at the full resolution (those not confirmed yet, a
+        batched call per mode); False if one fails (it is then invalid)."""
+        todo: dict[int, list[tuple[int, int]]] = {}
+        for u, v in zip(path, path[1:]):
+            key = _key(u, v)
+            if self.bridge.get(u, (None,))[0] != v and key not in self._fine:
+                todo.setdefault(self.node_mode[u], []).append(key)
+        good = True
+        for mid, keys in todo.items():
+            a, b = np.array(keys).T
+            ok = self.p.motions_valid(self.modes[mid], self.Q[a], self.Q[b], self.opt.resolution)
+            self.counts["edges_confirmed"] += len(keys)
+            for key, fine in zip(keys, ok.tolist()):
+                self._fine[key] = fine
+                if not fine:
+                    self._mark(key, False)
+                    good = False
+        return good
+
+    def _mark(self, key: tuple[int, int], ok: bool) -> None:
+        self.edge_ok[key] = ok
+        if not ok:
+            self.counts["edges_invalid"] += 1
+            self._invalid.add(key)
+
+    def _valid(self, u: int, v: int) -> bool | None:
+        """Is the edge u -> v collision-free (None: not checked yet; transition edges always
+        are)?"""
         if self.bridge.get(u, (None,))[0] == v:
             return True
-        key = _key(u, v)
-        ok = self.edge_ok.get(key)
-        if ok is None:
-            self.counts["edges_checked"] += 1
-            mode = self.modes[self.node_mode[u]]
-            a, b = self.Q[u], self.Q[v]
-            # most edges that fail show it at a coarse step already (a state of the segment
-            # collides): an eighth of the states first, then every one
-            ok = self.p.motion(mode, a, b, 8 * self.opt.resolution) >= 1.0 and \
-                self.p.motion(mode, a, b, self.opt.resolution) >= 1.0
-            self.edge_ok[key] = ok
-            if not ok:
-                self.counts["edges_invalid"] += 1
-                self._invalid.add(key)
-        return ok
+        return self.edge_ok.get(_key(u, v))
+
+    def _check(self, pairs) -> None:
+        """Collision-check the unchecked edges among ``pairs`` (the popped one and those near
+        the top of the search's queue), a batched call per mode, at ``coarse`` times the
+        resolution: most edges that fail show it at a coarse step already (a state of the
+        segment collides), and only the edges of a path found are checked at every step
+        (:meth:`_confirm`)."""
+        todo: dict[int, list[tuple[int, int]]] = {}
+        for u, v in pairs:
+            key = _key(u, v)
+            if key not in self.edge_ok and self._valid(u, v) is None and key not in \
+                    todo.setdefault(self.node_mode[u], []):
+                todo[self.node_mode[u]].append(key)
+        for mid, keys in todo.items():
+            if not keys:
+                continue
+            a, b = np.array(keys).T
+            ok = self.p.motions_valid(self.modes[mid], self.Q[a], self.Q[b],
+                                      self.opt.coarse * self.opt.resolution)
+            self.counts["edges_checked"] += len(keys)
+            for key, good in zip(keys, ok.tolist()):
+                self._mark(key, good)
 
     # ---- the loop ----------------------------------------------------------------------------
     def solve(self, time_limit: float, progress=None) -> OptimalResult:
@@ -578,13 +622,18 @@ class OptimalPlanner:
             status = "solved"
         return OptimalResult(status, path, stats, self.best_cost)
 
-def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.inf):
+def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.inf,
+               check=None, lookahead: int = 64):
     """A* over the CSR graph ``g`` (edge costs) from ``start`` to any of ``goals`` with a
-    consistent heuristic ``h`` (inf: no goal reachable), checking an edge with ``valid(u, v)``
-    only when the entry that uses it is popped (lazy A*), and only for paths cheaper than
-    ``bound``. Returns (cost, path, parents): the cheapest path whose edges are all valid, or
-    (inf, None, parents) when none beats ``bound``; ``parents`` maps every closed vertex to its
-    parent (-1 for the start)."""
+    consistent heuristic ``h`` (inf: no goal reachable), evaluating an edge only when the entry
+    that uses it is popped (lazy A*), and only for paths cheaper than ``bound``.
+
+    ``valid(u, v)``: True/False, or None while the edge is unknown; then ``check(pairs)`` is
+    called with that edge and the edges of the entries at the top of the queue (the first
+    ``lookahead`` of its heap: those popped soon), to evaluate them in one batch, and ``valid``
+    is asked again. Returns (cost, path, parents): the cheapest path whose edges are all valid,
+    or (inf, None, parents) when none beats ``bound``; ``parents`` maps every closed vertex to
+    its parent (-1 for the start)."""
     indptr, ind, data = g.indptr, g.indices, g.data
     closed: dict[int, int] = {}
     if not np.isfinite(h[start]):
@@ -595,8 +644,16 @@ def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.i
         f, gv, _, v, u = heapq.heappop(heap)
         if f >= bound - 1e-12:
             break
-        if v in closed or (u >= 0 and not valid(u, v)):
+        if v in closed:
             continue
+        if u >= 0:
+            ok = valid(u, v)
+            if ok is None:
+                check([(u, v)] + [(e[4], e[3]) for e in heap[:lookahead]
+                                  if e[3] not in closed and e[4] >= 0])
+                ok = valid(u, v)
+            if not ok:
+                continue
         closed[v] = u
         if v in goals:
             return gv, _chain(closed, v), closed
