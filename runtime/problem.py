@@ -396,8 +396,9 @@ class PlanningProblem:
         ok = np.asarray(self.collision.check_batch(np.concatenate(segs), poses=mode.poses,
                                                    attached=mode.held))
         self.timers.collision += time.perf_counter() - t
-        bad = np.add.reduceat(~ok, np.r_[0, np.cumsum(lens)[:-1]]) if len(ok) else 0
-        return np.where(lens > 0, bad == 0, True)
+        ends = np.cumsum(lens)
+        bad = np.r_[0, np.cumsum(~ok)]                 # colliding states before each index
+        return bad[ends] - bad[ends - lens] == 0
 
     def uniform(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return rng.uniform(self.lower, self.upper, (n, len(self.lower)))

@@ -216,3 +216,20 @@ def test_cli_optimal_writes_a_valid_plan_with_its_cost_trace(tmp_path):
     assert trace and doc["stats"]["cost"] == trace[-1][1]
     r = run_tmpc("validate", CLUTTER, out)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_motions_valid_matches_one_motion_at_a_time(clutter_problem_1):
+    """Batched edge checks (empty interiors among them) agree with check_motion."""
+    p = clutter_problem_1
+    rng = np.random.default_rng(5)
+    A = p.uniform(rng, 40)
+    A = A[p.valid_batch(p.initial, A)][:12]
+    B = np.concatenate([A[1:], A[:1]])
+    B[::3] = A[::3] + 1e-4                        # motions with no interior state
+    B[-1] = A[-1] + 1e-4                          # ... the last one too
+    got = p.motions_valid(p.initial, A, B, 0.05)
+    want = [p.collision.check_motion(a, b, 0.05, poses=p.initial.poses,
+                                     attached=p.initial.held, details=False).valid
+            for a, b in zip(A, B)]
+    assert got.tolist() == want
+    assert not all(want) and any(want)
