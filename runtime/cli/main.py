@@ -214,6 +214,10 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="longest joint-space step between motion checks (default 0.05)")
         p.add_argument("--tolerance", type=float, default=None,
                        help="penetration depth (m) to ignore (default: the configuration's)")
+        p.add_argument("--convention", default="auto",
+                       choices=("auto", "tmpc", "tmit-star", "planet"),
+                       help="how the plan was written (default auto: tmpc for tmpc-plan/1, "
+                       "else the planner a bare array's action spelling names; docs/validate.md)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
     elif name == "view":
         p.add_argument("input", metavar="INPUT", help="the run configuration or artifact")

@@ -1,5 +1,6 @@
-"""`tmpc validate INPUT|ART PLAN.json [--resolution R] [--tolerance T] [--json]`: the independent
-plan check (docs/validate.md). Exit 0 valid; 1 with the violations."""
+"""`tmpc validate INPUT|ART PLAN.json [--resolution R] [--tolerance T] [--convention C]
+[--json]`: the independent plan check (docs/validate.md). Exit 0 valid; 1 with the
+violations."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ def run_validate(args) -> int:
     plan = read_plan(args.plan)
     world = open_world(args.input)
     check_plan_fits(world, plan, args.input)
-    report = validate_plan(world, plan, args.tolerance, args.resolution)
+    report = validate_plan(world, plan, args.tolerance, args.resolution,
+                           getattr(args, "convention", "auto"))
     made_for = (plan.meta.get("input") or {}).get("digest") if isinstance(
         plan.meta.get("input"), dict) else None
     if made_for and made_for != file_digest(args.input):

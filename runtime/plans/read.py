@@ -123,6 +123,19 @@ def parse_plan(src: SourceFile) -> Plan:
     return _Reader(src).plan(data)
 
 
+def _array_convention(data: list) -> str:
+    """Which planner wrote a bare state array, from how it spells actions: planet ``[name,
+    args...]``, tmit-star ``"name(arg, arg)"``; ``array`` when it has none or spells them
+    ``"(name arg ...)"``."""
+    for s in data:
+        a = s.get("action") if isinstance(s, dict) else None
+        if isinstance(a, list):
+            return "planet"
+        if isinstance(a, str) and not a.lstrip().startswith("("):
+            return "tmit-star"
+    return "array"
+
+
 def _short(path: str) -> str:
     return path.replace("\\", "/").rsplit("/", 1)[-1] or path
 
@@ -150,7 +163,8 @@ class _Reader:
     def plan(self, data) -> Plan:
         if isinstance(data, list):
             states = self.states(data, "")
-            return Plan(self.src.path, "array", states)
+            return Plan(self.src.path, "array", states,
+                        meta={"convention": _array_convention(data)})
         if not isinstance(data, dict):
             raise self.fail("E801", "", f"expected a JSON object or an array of states, found "
                             f"{_kind(data)}", "see docs/plan-format.md")

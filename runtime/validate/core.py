@@ -55,6 +55,10 @@ from tmpc.runtime.validate.logic import Facts, Logic
 from tmpc.runtime.validate.predicates import Predicates
 from tmpc.runtime.validate.report import Report, Violation
 
+#: how a plan is read (docs/validate.md "Conventions"): auto = tmpc for tmpc-plan/1 files, else
+#: the planner a bare array's action spelling names
+CONVENTIONS = ("auto", "tmpc", "tmit-star", "planet")
+LEGACY_CONVENTIONS = ("tmpc", "tmit-star", "planet")
 #: positions (m) and angles (rad) closer than this are the same
 POSE_TOL = 1e-4
 #: slack on joint limits and on values that must not change (rad or m)
@@ -77,7 +81,12 @@ class _State:
 class Validator:
     """Validate plans for one world (a run configuration with a domain and a problem)."""
 
-    def __init__(self, world, tolerance: float | None = None, resolution: float = 0.05):
+    def __init__(self, world, tolerance: float | None = None, resolution: float = 0.05,
+                 convention: str = "auto"):
+        if convention not in CONVENTIONS:
+            raise ValueError(f"convention must be one of {CONVENTIONS}")
+        self.convention_option = convention
+        self.convention = "tmpc"
         self.world, self.scene = world, world.scene
         self.tolerance = default_tolerance(world) if tolerance is None else float(tolerance)
         self.resolution = float(resolution)
@@ -125,6 +134,11 @@ class Validator:
             rep.notes.append(f"the plan's status is `{plan.status}`")
         if plan.form == "array":
             rep.notes.append("a bare state array: modes reconstructed by simulation")
+        self.convention = self.convention_option if self.convention_option != "auto" else \
+            plan.meta.get("convention", "tmpc") if plan.form == "array" else "tmpc"
+        if self.convention not in LEGACY_CONVENTIONS:
+            self.convention = "tmpc"
+        self._legacy = {"motions": 0, "snaps": []}
         self.v = rep.violations
         self._linked = set()
         self._check_action_list(plan)
@@ -137,6 +151,8 @@ class Validator:
             self.add(prev.index, "action", f"the plan ends with action {_action_text(prev.action)}"
                      ": its effects need a following state (same configuration, the new mode)")
         self._check_goal(prev)
+        if self.convention != "tmpc":
+            rep.notes.append(self._convention_note())
         rep.violations.sort(key=_order)
         if self.predicates.lua_used:
             rep.notes.append("Lua predicates evaluated directly: " +
@@ -339,7 +355,14 @@ class Validator:
         for a, b, d in pairs:
             self.add(st.index, "collision", f"{a} collides with {b} (penetration {d:.4f} m)",
                      pair=[a, b], depth=d)
-        if prev is not None and prev.action is not None:
+        if prev is not None and prev.action is not None and self.convention != "tmpc":
+            # planet/tmit-star: the action is on the state where it is executed, and the next
+            # state may be anywhere in the new mode: a motion from the action's configuration
+            after = self._after_action(prev, st)
+            if self._moved(prev, st):
+                self._legacy["motions"] += 1
+                rep.motion_checks += self._check_motion(after, st)
+        elif prev is not None and prev.action is not None:
             self._check_unchanged(prev, st)
         elif prev is not None:
             rep.motion_checks += self._check_motion(prev, st)
@@ -405,10 +428,19 @@ class Validator:
         object where it was (objects grasped or released keep their pose)."""
         if prev is None:
             return
+        after = self._after_action(prev, st) if prev.action is not None and \
+            self.convention != "tmpc" else None
         for o in self.scene.objects:
             T = st.objects[o.name]
             parent = st.held.get(o.name)
-            if parent is not None and prev.held.get(o.name) == parent:
+            if after is not None and parent is not None and prev.held.get(o.name) != parent:
+                # grasped by the action: carried from where the planner put it
+                Fa, Fs = self.frame_T(after, parent), self.frame_T(st, parent)
+                want = Fs @ np.linalg.inv(Fa) @ after.objects[o.name]
+                if _pose_gap(T, want) > POSE_TOL:
+                    self.add(st.index, "held", f"grasped object `{o.name}` is "
+                             f"{_pose_text(T, want)} away from where `{parent}` carries it")
+            elif parent is not None and prev.held.get(o.name) == parent:
                 want = self._carried(st, prev, o.name)
                 if want is not None and _pose_gap(T, want) > POSE_TOL:
                     self.add(st.index, "held", f"held object `{o.name}` is "
@@ -418,12 +450,49 @@ class Validator:
                 self.add(st.index, "object", f"{what}object `{o.name}` moved "
                          f"{_pose_text(T, prev.objects[o.name])} but is not held")
 
-    def _check_unchanged(self, prev: _State, st: _State) -> None:
+    def _moved(self, prev: _State, st: _State) -> list[str]:
+        """The coordinates that differ between two states (``base_pose`` first)."""
         moved = [n for n in sorted(set(prev.values) | set(st.values))
                  if abs(joint_delta(self.desc, n, st.values.get(n, 0.0),
                                     prev.values.get(n, 0.0))) > JOINT_TOL]
         if _pose_gap(prev.T_root, st.T_root) > POSE_TOL:
             moved.insert(0, "base_pose")
+        return moved
+
+    def _after_action(self, prev: _State, st: _State) -> _State:
+        """The state right after ``prev``'s action in a legacy plan: ``prev``'s configuration in
+        ``st``'s mode. An object the action grasps is where the planner put it: tmit-star snaps
+        it onto the frame (its mode_atlas.cc sets the grasp to the identity), planet keeps its
+        world pose; a released one stays where it was."""
+        got = self._legacy.get("after")
+        if got is not None and got[0] == prev.index:
+            return got[1]
+        objects = dict(prev.objects)
+        if self.convention == "tmit-star":
+            for o, parent in st.held.items():
+                F = self.frame_T(prev, parent)
+                if prev.held.get(o) != parent and F is not None:
+                    self._legacy["snaps"].append(
+                        float(np.linalg.norm(F[:3, 3] - prev.objects[o][:3, 3])))
+                    objects[o] = F
+        after = _State(prev.index, prev.values, prev.T_root, prev.link_T, objects, st.facts,
+                       st.held)
+        self._legacy["after"] = (prev.index, after)
+        return after
+
+    def _convention_note(self) -> str:
+        snaps = self._legacy["snaps"]
+        note = (f"read with {self.convention}'s conventions: an action is on the state where it "
+                "is executed and the next state may be elsewhere in the new mode (checked as a "
+                f"motion from the action's configuration: {self._legacy['motions']} such)")
+        if self.convention == "tmit-star":
+            note += ("; continuous joints move linearly in value; a grasped object snaps onto "
+                     f"the gripper frame ({len(snaps)} grasps"
+                     + (f", up to {max(snaps):.3f} m" if snaps else "") + ")")
+        return note
+
+    def _check_unchanged(self, prev: _State, st: _State) -> None:
+        moved = self._moved(prev, st)
         if moved:
             self.add(prev.index, "configuration", f"the configuration changes across action "
                      f"{_action_text(prev.action)} ({', '.join(moved[:4])}"
@@ -431,7 +500,8 @@ class Validator:
 
     def _check_motion(self, a: _State, b: _State) -> int:
         """Collision-check the straight motion a -> b; returns the configurations checked."""
-        m = straight_motion(self.desc, self.mobile, a.values, a.T_root, b.values, b.T_root)
+        m = straight_motion(self.desc, self.mobile, a.values, a.T_root, b.values, b.T_root,
+                            short_way=self.convention != "tmit-star")
         n = int(math.ceil(m.span / self.resolution - 1e-12))
         if n <= 1:
             return 0
@@ -570,13 +640,13 @@ def _dict_text(d: dict) -> str:
 
 
 def validate_plan(world, plan: Plan | str, tolerance: float | None = None,
-                  resolution: float = 0.05) -> Report:
+                  resolution: float = 0.05, convention: str = "auto") -> Report:
     """Validate ``plan`` (a :class:`Plan` or a path) in ``world``; see the module docstring."""
     _check_world(world)
     check_numbers(tolerance, resolution)
     if not isinstance(plan, Plan):
         plan = read_plan(plan)
-    return Validator(world, tolerance, resolution).validate(plan)
+    return Validator(world, tolerance, resolution, convention).validate(plan)
 
 
 def _check_world(world) -> None:

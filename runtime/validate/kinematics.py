@@ -310,10 +310,13 @@ class Motion:
 
 
 def straight_motion(desc, mobile: bool, va: dict, Ta: np.ndarray, vb: dict,
-                    Tb: np.ndarray) -> Motion:
+                    Tb: np.ndarray, short_way: bool = True) -> Motion:
+    """``short_way``: continuous joints the short way round (tmpc, planet); False: linearly
+    in value, as tmit-star interpolates them (its cspace.cc)."""
     names = sorted(set(va) | set(vb))
     start = np.array([va.get(n, 0.0) for n in names])
-    delta = np.array([joint_delta(desc, n, vb.get(n, 0.0), va.get(n, 0.0)) for n in names])
+    delta = np.array([joint_delta(desc, n, vb.get(n, 0.0), va.get(n, 0.0)) if short_way
+                      else vb.get(n, 0.0) - va.get(n, 0.0) for n in names])
     base = np.array([Ta[0, 3], Ta[1, 3], heading(Ta)])
     bd = np.array([Tb[0, 3] - Ta[0, 3], Tb[1, 3] - Ta[1, 3], wrap_angle(heading(Tb) - base[2])]) \
         if mobile else np.zeros(3)

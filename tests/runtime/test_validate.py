@@ -9,6 +9,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from tests.support import EXAMPLES, FIXTURES, TABLETOP
@@ -434,3 +435,68 @@ def test_a_plan_for_another_problem_is_said_so_first(tmp_path):
                         str(PLANS / "tabletop.json"), "--png", str(tmp_path / "x.png")],
                        capture_output=True, text=True)
     assert r.returncode == 1 and "error[E817]" in r.stderr and not (tmp_path / "x.png").exists()
+
+
+# ---- plans of the other planners (docs/validate.md "Conventions") -------------------------------
+
+def _legacy(plan, flavour: str, drop=(2, 4, 6)) -> list[dict]:
+    """The tabletop plan as planet or tmit-star write theirs: bare states, the planner's action
+    spelling, and no separate state after an action (the next one is elsewhere in the new
+    mode)."""
+    out = []
+    for i, s in enumerate(plan["states"]):
+        if i in drop:
+            continue
+        s = {k: v for k, v in s.items() if k != "mode"}
+        if s["action"]:
+            name, *args = s["action"].strip("()").split()
+            s["action"] = [name, *args] if flavour == "planet" else f"{name}({', '.join(args)})"
+        out.append(s)
+    return out
+
+
+def test_planet_plans_move_on_from_the_action_state(tabletop, plan):
+    from tmpc.runtime.validate.core import Validator
+    states = _legacy(plan, "planet")
+    rep = validate(tabletop, states)
+    assert rep.valid, rep.text()
+    note = next(n for n in rep.notes if "planet's conventions" in n)
+    assert "3 such" in note                      # pick -> place, place -> pick, pick -> place
+    # read as tmpc plans, the same states change configuration across each action
+    strict = Validator(tabletop.world, convention="tmpc")
+    got = validate(strict, states)
+    assert [v.kind for v in got.violations].count("configuration") == 3
+
+
+def test_tmit_star_plans_snap_grasped_objects_onto_the_frame(tabletop, plan):
+    """tmit-star puts a grasped object on the gripper frame itself. Written that way, the plan
+    is valid under tmit-star's conventions (at its tolerance, 0.029 m: the snap pushes the
+    cubes 3-13 mm into the bench and the fingers); the same poses are a violation under planet's."""
+    from scipy.spatial.transform import Rotation
+
+    from tmpc.runtime.validate.core import Validator
+    v = Validator(tabletop.world, tolerance=0.029)
+
+    def tcp(s):
+        values = dict(v.defaults, **s["joints"])
+        return v.link_poses(v.T_base0, values)[v.link_index["panda_hand_tcp"]]
+
+    def as_pose(T):
+        return {"translation": T[:3, 3].tolist(),
+                "rotation": Rotation.from_matrix(T[:3, :3]).as_quat().tolist()}
+
+    st = plan["states"]
+    for obj, grasp, place, after in (("red_cube", 1, 3, (4, 5, 6, 7, 8)),
+                                     ("blue_cube", 5, 7, (8,))):
+        snapped = tcp(st[place])
+        # the snap moves the object: the test means something
+        assert np.linalg.norm(tcp(st[grasp])[:3, 3]
+                              - np.array(st[grasp]["object_poses"][obj]["translation"])) > 1e-3
+        for k in (place, *after):
+            st[k]["object_poses"][obj] = as_pose(snapped)
+    rep = validate(v, _legacy(plan, "tmit-star"))
+    assert rep.valid, rep.text()
+    note = next(n for n in rep.notes if "tmit-star's conventions" in n)
+    assert "2 grasps" in note
+    got = validate(v, _legacy(plan, "planet"))
+    assert any(x.kind == "held" for x in got.violations), got.text()
