@@ -233,3 +233,20 @@ def test_motions_valid_matches_one_motion_at_a_time(clutter_problem_1):
             for a, b in zip(A, B)]
     assert got.tolist() == want
     assert not all(want) and any(want)
+
+
+def test_until_converged_stops_before_the_limit(clutter_problem_1):
+    planner = OptimalPlanner(clutter_problem_1, 2, OptimalOptions(until_converged=True,
+                                                                  converged_solutions=3))
+    result = planner.solve(60.0)
+    assert result.status == "solved"
+    assert result.stats["seconds"] < 60.0
+    last = planner._search_costs[-3:]
+    assert max(last) - min(last) <= 0.1 * min(last)
+
+
+def test_time_limit_without_a_solution_is_partial(clutter_problem_1):
+    result = OptimalPlanner(clutter_problem_1, 0, OptimalOptions()).solve(1e-3)
+    assert result.status == "partial" and result.stats["cost"] is None
+    assert len(result.path) >= 1
+    assert np.array_equal(result.path[0][0], clutter_problem_1.q0)
