@@ -113,7 +113,12 @@ class TaskPlanner:
                                          self.landmarks.sets if self.landmarks else (),
                                          self.mutexes or ())
         self.template_seconds = time.perf_counter() - t0
-        self.solver = z3.SolverFor("QF_FD")
+        # a context of its own: Z3's models depend on the history of the context they are made
+        # in (fresh names, term ids), so in the shared global one the second planner of a
+        # process found other plans than the first (measured); this way a plan depends only on
+        # the problem and what was added
+        self.ctx = z3.Context()
+        self.solver = z3.SolverFor("QF_FD", ctx=self.ctx)
         #: the last encoded layer (steps 1..layers are encoded too)
         self.layers = -1
         self._unsat: set[int] = set()                       # horizons proven impossible
@@ -310,7 +315,7 @@ class TaskPlanner:
                 if k not in self._assumed:
                     self._assumed.add(k)
                     self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
-                r = self.solver.check(*[_lit_expr(z3, lit) for lit in lits])
+                r = self.solver.check(*[_lit_expr(z3, lit, self.ctx) for lit in lits])
                 model = self.solver.model() if r == z3.sat else None
         finally:
             if guard is not None:
@@ -342,10 +347,10 @@ def _assert(clause: list[str]) -> str:
     return f"(assert {clause[0]})" if len(clause) == 1 else f"(assert (or {' '.join(clause)}))"
 
 
-def _lit_expr(z3, lit: str):
+def _lit_expr(z3, lit: str, ctx=None):
     if lit.startswith("(not "):
-        return z3.Not(z3.Bool(lit[5:-1]))
-    return z3.Bool(lit)
+        return z3.Not(z3.Bool(lit[5:-1], ctx))
+    return z3.Bool(lit, ctx)
 
 
 def simulate(problem: GroundProblem, plan: list[GroundAction]) -> tuple[bool, str]:

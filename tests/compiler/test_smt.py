@@ -207,6 +207,20 @@ def test_random_problems_against_bfs(seed):
         plan_ok(gp, result, optimum)
 
 
+def test_the_same_problem_gives_the_same_plans_in_every_planner():
+    """Plans depend on the problem and what was added, not on the planners made before in the
+    process (each TaskPlanner has its own Z3 context; in the shared one they differed)."""
+    from tmpc.lang.world.generate import clutter_problem
+    gp = _ground((EXAMPLES / "clutter" / "domain.pddl").read_text(), clutter_problem(4))
+    runs = []
+    for _ in range(3):
+        tp = TaskPlanner(gp, geometric=True)
+        first = tp.next_plan(20).actions
+        tp.exclude_plan(first)
+        runs.append([[a.name for a in first], [a.name for a in tp.next_plan(20).actions]])
+    assert runs[0] == runs[1] == runs[2]
+
+
 def test_goal_true_at_start_gives_the_empty_plan():
     gp = _ground(REACH, """(define (problem p) (:domain reach) (:objects a b - node)
       (:init (start a) (edge a b)) (:goal (reach b)))""")
