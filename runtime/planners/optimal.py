@@ -72,7 +72,11 @@ class OptimalOptions:
     rewire: float = 1.0                # k-nearest rewire factor
     resolution: float = 0.05           # motion-check resolution (the validator's default)
     coarse: float = 8.0                # the search checks edges at coarse x resolution first
-    inflation: float = 1.0             # heuristic weight of the searches before a first solution
+    inflation: float = 2.0             # heuristic weight of the searches before a first solution
+    mode_caps: int = 0                 # > 0: caps per source mode, this many times the absolute
+    portals: bool = True               # join each mode's entries to its exits (tmpc's addition)
+    corridor: float = 0.5              # share of samples around entry-exit segments (tmpc's)
+    corridor_sigma: float = 0.05       # their noise, as a fraction of each coordinate's range
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
@@ -103,6 +107,8 @@ class Transition:
     failures: int = 0
     #: (distance, mode, q) of the failed attempt closest to the precondition
     best_fail: tuple | None = None
+    #: successes per source mode
+    by_mode: dict = field(default_factory=dict)
 
 
 class OptimalPlanner:
@@ -301,16 +307,41 @@ class OptimalPlanner:
         return not (self.frontier or self.queue)
 
     def _uniform_valid(self, mode: Mode, n: int) -> np.ndarray:
+        """``n`` collision-free samples of ``mode``: uniform ones, and with ``corridor`` > 0
+        that share drawn around the straight segments between the mode's entries and exits
+        (a point of a random segment plus Gaussian noise of ``corridor_sigma`` times each
+        coordinate's range), where a first path through the mode has to go; the uniform
+        share keeps the graph dense everywhere (asymptotic optimality)."""
         p = self.p
         got, tries = [], 0
+        portals = self._portals_of(mode.id) if self.opt.corridor > 0 else None
         while sum(len(g) for g in got) < n and tries < 50:
             tries += 1
             t = time.perf_counter()
             Q = p.uniform(self.rng, 2 * n)
+            if portals is not None:
+                k = int(round(len(Q) * self.opt.corridor))
+                a = portals[0][self.rng.integers(len(portals[0]), size=k)]
+                b = portals[1][self.rng.integers(len(portals[1]), size=k)]
+                # a third at the entry, a third at the exit, a third along the segment; noise
+                # at three scales (the first steps out of a grasp are short)
+                u = self.rng.random((k, 1))
+                u = np.where(u < 1 / 3, 0.0, np.where(u < 2 / 3, 1.0, self.rng.random((k, 1))))
+                along = a + u * p.difference(b, a)
+                scale = self.opt.corridor_sigma * self.rng.choice([0.2, 1.0, 3.0], (k, 1))
+                noise = self.rng.normal(0.0, 1.0, along.shape) * scale
+                Q[:k] = p.wrap(along + noise * (p.upper - p.lower))
             p.timers.sampling += time.perf_counter() - t
             got.append(Q[p.valid_batch(mode, Q)])
             self.counts["samples"] += len(Q)
         return np.concatenate(got)[:n] if got else np.zeros((0, self.dim))
+
+    def _portals_of(self, mid: int):
+        """(entry configurations, exit configurations) of a mode, or None if it has no exit."""
+        for m, (ins, outs) in self._portals():
+            if m == mid:
+                return self.Q[ins], self.Q[outs]
+        return None
 
     def _sample_mode(self, mode: Mode) -> bool:
         """A batch of samples in ``mode`` and the transitions they reach; True if a goal mode
@@ -321,7 +352,7 @@ class OptimalPlanner:
         radius = self._radius(len(self.mode_vertices[mode.id]))
         reached = False
         for tr in self.transitions.get(mode.sym, ()):
-            if not self._budget(tr):
+            if not self._budget(tr, mode):
                 continue
             self.no_budget = False
             dist = p.distances(mode, tr.action, Q)
@@ -332,12 +363,12 @@ class OptimalPlanner:
             if tr.action is not None and not p.has_geometry(tr.action):
                 # a purely discrete action happens wherever the robot is
                 for i in near:
-                    if not self._budget(tr):
+                    if not self._budget(tr, mode):
                         break
                     reached |= self._succeed(tr, mode, ids[i], Q[i])
                 continue
             for lo in range(0, len(near), 16):
-                if not self._budget(tr):
+                if not self._budget(tr, mode):
                     break
                 starts = Q[near[lo:lo + 16]]
                 self.counts["projections"] += len(starts)
@@ -346,7 +377,7 @@ class OptimalPlanner:
                 if ok.any():
                     ok[ok] = p.valid_batch(mode, Qp[ok])
                 for q, h, good, d in zip(Qp, holds, ok, dist_p):
-                    if not self._budget(tr):
+                    if not self._budget(tr, mode):
                         break
                     if good:
                         reached |= self._succeed(tr, mode, None, p.wrap(q))
@@ -354,11 +385,20 @@ class OptimalPlanner:
                         self._fail(tr, mode, q, bool(h), float(d))
         return reached
 
-    def _budget(self, tr: Transition) -> bool:
-        return tr.successes < min(self.opt.absolute_cap, self.cap)
+    def _budget(self, tr: Transition, mode: Mode | None = None) -> bool:
+        """Successes left for ``tr`` in this batch: fewer than the batch's cap and the
+        absolute cap. With ``mode_caps`` the caps count the successes from ``mode`` (and all
+        of them stay under ``mode_caps`` times the absolute cap), so the budget a transition
+        spent in modes that lead nowhere does not starve it in the others."""
+        cap = min(self.opt.absolute_cap, self.cap)
+        if not self.opt.mode_caps or mode is None:
+            return tr.successes < cap
+        return tr.by_mode.get(mode.id, 0) < cap and \
+            tr.successes < self.opt.mode_caps * self.opt.absolute_cap
 
     def _succeed(self, tr: Transition, mode: Mode, vertex: int | None, q: np.ndarray) -> bool:
         tr.successes += 1
+        tr.by_mode[mode.id] = tr.by_mode.get(mode.id, 0) + 1
         self.counts["transitions"] += 1
         v = self._add_vertex(q, mode) if vertex is None else vertex
         if tr.action is None:
@@ -421,6 +461,13 @@ class OptimalPlanner:
             rows.append(src)
             cols.append(np.array([self.bridge[v][0] for v in src], np.int64))
             vals.append(np.zeros(len(src)))
+        if self.opt.portals:
+            for a, b in self._portal_edges():
+                ra, rb = np.meshgrid(a, b, indexing="ij")
+                w = np.stack([self.p.cost(self.Q[b], self.Q[x]) for x in a])
+                rows += [ra.ravel(), rb.ravel()]
+                cols += [rb.ravel(), ra.ravel()]
+                vals += [w.ravel(), w.ravel()]
         if not rows:
             return csr_matrix((n, n))
         r, c, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
@@ -433,6 +480,29 @@ class OptimalPlanner:
             keep = ~np.isin(lo * (1 << 32) + hi, bad[:, 0] * (1 << 32) + bad[:, 1])
             r, c, w = r[keep], c[keep], w[keep]
         return csr_matrix((w, (r, c)), shape=(n, n))
+
+    def _portal_edges(self):
+        for _, pair in self._portals():
+            yield pair
+
+    def _portals(self):
+        """Per mode, (entries, exits): the vertices where the robot arrives in the mode (the
+        start, bridges) and those where it leaves it (transition and goal vertices). Every
+        entry is joined to every exit: the straight motion between them is often free and is
+        what a first solution needs (the unified planner's connect step); k-nearest edges
+        rarely span that far in a high-dimensional space with 50 samples per batch."""
+        entries: dict[int, list[int]] = {0: [0]}
+        exits: dict[int, list[int]] = {}
+        for t, (b, _) in self.bridge.items():
+            entries.setdefault(self.node_mode[b], []).append(b)
+            exits.setdefault(self.node_mode[t], []).append(t)
+        for g in self.goals:
+            if g not in entries.get(self.node_mode[g], ()):
+                exits.setdefault(self.node_mode[g], []).append(g)
+        for mid, ins in entries.items():
+            outs = exits.get(mid)
+            if outs:
+                yield mid, (np.asarray(ins, np.int64), np.asarray(outs, np.int64))
 
     def _neighbours(self, mid: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
@@ -636,9 +706,10 @@ def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.i
     called with that edge and the edges of the entries at the top of the queue (the first
     ``lookahead`` of its heap: those popped soon), to evaluate them in one batch, and ``valid``
     is asked again. ``weight`` > 1 orders the queue by g + weight h (weighted A*: a path at most
-    ``weight`` times the cheapest, found after fewer edge checks). Returns (cost, path, parents): the cheapest path whose edges are all valid,
-    or (inf, None, parents) when none beats ``bound``; ``parents`` maps every closed vertex to
-    its parent (-1 for the start)."""
+    ``weight`` times the cheapest, found after fewer edge checks). Returns (cost, path,
+    parents): the cheapest path whose edges are all valid (with ``weight`` 1), or (inf, None,
+    parents) when none beats ``bound``; ``parents`` maps every closed vertex to its parent (-1
+    for the start)."""
     indptr, ind, data = g.indptr, g.indices, g.data
     closed: dict[int, int] = {}
     if not np.isfinite(h[start]):
