@@ -77,6 +77,7 @@ class OptimalOptions:
     portals: bool = True               # join each mode's entries to its exits (tmpc's addition)
     corridor: float = 0.5              # share of samples around entry-exit segments (tmpc's)
     corridor_sigma: float = 0.05       # their noise, as a fraction of each coordinate's range
+    search_budget: int = 3000          # edges one search may check before it waits for a batch
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
@@ -152,6 +153,7 @@ class OptimalPlanner:
         self._invalid: set[tuple[int, int]] = set()         # blacklisted edges
         self._nn: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._fine: dict[tuple[int, int], bool] = {}        # edges checked at the resolution
+        self._checks_left = math.inf
         self.best_cost = math.inf
         self.best_path: list[int] | None = None
         self.trace: list[tuple[float, float]] = []
@@ -161,7 +163,8 @@ class OptimalPlanner:
         self.on_solution = None          # callback(result) at every improved solution
         self.counts = {"batches": 0, "task_plans": 0, "samples": 0, "projections": 0,
                        "transitions": 0, "transition_failures": 0, "edges_checked": 0,
-                       "edges_confirmed": 0, "edges_invalid": 0, "searches": 0, "evidence": 0}
+                       "edges_confirmed": 0, "edges_invalid": 0, "searches": 0,
+                       "searches_cut": 0, "evidence": 0}
         self._t0 = time.perf_counter()
 
     @classmethod
@@ -557,12 +560,17 @@ class OptimalPlanner:
         then checked at the full resolution (all at once) and, if one fails, it is blacklisted
         and the search goes on: every edge of a reported path is valid at the resolution."""
         depth = np.array([self.depth[m] for m in self.node_mode])
+        self._checks_left = self.opt.search_budget or math.inf
         while True:
             # until a first solution, weighted (ABIT*'s inflation): found with fewer edge
             # checks; every later search is exact, so the anytime costs reach the optimum
             weight = self.opt.inflation if self.best_path is None else 1.0
-            cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid, self.best_cost,
-                                            self._check, weight=weight)
+            try:
+                cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid,
+                                                self.best_cost, self._check, weight=weight)
+            except _OutOfChecks:
+                self.counts["searches_cut"] += 1
+                return False
             if path is None:
                 if self.best_path is None and closed:
                     reached = np.fromiter(closed, np.int64, len(closed))
@@ -622,6 +630,9 @@ class OptimalPlanner:
         for mid, keys in todo.items():
             if not keys:
                 continue
+            if self._checks_left <= 0:
+                raise _OutOfChecks
+            self._checks_left -= len(keys)
             a, b = np.array(keys).T
             ok = self.p.motions_valid(self.modes[mid], self.Q[a], self.Q[b],
                                       self.opt.coarse * self.opt.resolution)
@@ -695,6 +706,10 @@ class OptimalPlanner:
         if solved:
             status = "solved"
         return OptimalResult(status, path, stats, self.best_cost)
+
+class _OutOfChecks(Exception):
+    """A search spent its edge-check budget (``search_budget``)."""
+
 
 def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.inf,
                check=None, lookahead: int = 64, weight: float = 1.0):
