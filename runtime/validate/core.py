@@ -470,8 +470,12 @@ class Validator:
         objects = dict(prev.objects)
         if self.convention == "tmit-star":
             for o, parent in st.held.items():
-                F = self.frame_T(prev, parent)
-                if prev.held.get(o) != parent and F is not None:
+                F, Fs = self.frame_T(prev, parent), self.frame_T(st, parent)
+                if prev.held.get(o) == parent or F is None or Fs is None:
+                    continue
+                # a plan that kept the grasp (tmpc's --legacy-output tmit-star) is read as such
+                kept = Fs @ np.linalg.inv(F) @ prev.objects[o]
+                if _pose_gap(st.objects[o], kept) > POSE_TOL:
                     self._legacy["snaps"].append(
                         float(np.linalg.norm(F[:3, 3] - prev.objects[o][:3, 3])))
                     objects[o] = F
