@@ -56,6 +56,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
@@ -442,8 +444,6 @@ class OptimalPlanner:
     def _graph(self):
         """The sparse graph (CSR of costs) of the current vertices: symmetrised k-nearest
         neighbours inside each mode, blacklisted edges removed, transition edges directed."""
-        from scipy.sparse import csr_matrix
-
         n = len(self.node_mode)
         k = int(math.ceil(self.opt.rewire * (math.e + math.e / self.dim) * math.log(max(n, 2))))
         rows, cols, vals = [], [], []
@@ -542,8 +542,6 @@ class OptimalPlanner:
 
     def _search(self) -> bool:
         """Reverse Dijkstra for h, then the forward lazy A*; True if the best cost improved."""
-        from scipy.sparse.csgraph import dijkstra
-
         if not self.goals or len(self.node_mode) == self._graph_size:
             return False
         t = time.perf_counter()

@@ -144,9 +144,10 @@ def test_anytime_cost_never_increases_and_the_last_plan_is_valid(clutter_problem
     seen = []
     planner = OptimalPlanner(clutter_problem_1, 3, OptimalOptions())
     planner.on_solution = lambda r: seen.append((r.cost, len(r.path)))
-    result = planner.solve(6.0)
+    result = planner.solve(4.0)
     assert result.status == "solved"
     costs = [c for _, c in result.stats["cost_trace"]]
+    assert len(costs) >= 2                              # it did improve
     times = [t for t, _ in result.stats["cost_trace"]]
     assert costs == sorted(costs, reverse=True) and len(set(costs)) == len(costs)
     assert times == sorted(times)
@@ -208,7 +209,7 @@ def test_transition_caps_follow_tmit_star(clutter_problem_1):
 
 def test_cli_optimal_writes_a_valid_plan_with_its_cost_trace(tmp_path):
     out = tmp_path / "plan.json"
-    r = run_tmpc("run", CLUTTER, "--planner", "optimal", "--time-limit", "3", "-o", out, "-q")
+    r = run_tmpc("run", CLUTTER, "--planner", "optimal", "--first-solution", "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
     assert doc["planner"] == "optimal" and doc["status"] == "solved"
