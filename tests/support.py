@@ -95,3 +95,13 @@ def run_tmpc(*args, cwd=None):
     import sys
     return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *map(str, args)],
                           capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def validate_result(problem, result, path, planner: str, seed: int = 0):
+    """(plan document, validator report) of a planner's result written to ``path``."""
+    from tmpc.runtime.plans import plan_document, write_json_atomic
+    from tmpc.runtime.validate import validate_plan
+    doc = plan_document(problem, result, planner=planner, seed=seed, input_path=str(CLUTTER),
+                        setup_seconds=0.0)
+    write_json_atomic(path, doc)
+    return doc, validate_plan(problem.world, str(path))

@@ -42,9 +42,13 @@ cost-over-time trace. ``first_solution`` stops at the first one (tmit-star witho
 ``until_converged`` stops once the last ``converged_solutions`` searches' best costs lie within
 ``converged_ratio`` of each other. Ctrl-C keeps the best plan.
 
-Differences from tmit-star (docs/planning.md): the reverse search is recomputed per batch
-rather than repaired incrementally (LPA*); a mode's samples go through one batched collision
-call; blockers are used (tmit-star declares ``blocked_steps`` and never reads it).
+Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
+recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
+declares ``blocked_steps`` and never reads it); each mode's entries are joined to its exits and
+half of its samples are drawn around them (``portals``, ``corridor``); edges are checked in
+batches, coarse first, a found path's at the full resolution (``coarse``); the search before a
+first solution is inflated (``inflation``) and a search gives up after ``search_budget`` edge
+checks until the next batch.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, EXAMPLES, run_tmpc
+from tests.support import CLUTTER, EXAMPLES, run_tmpc, validate_result
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
@@ -23,13 +23,7 @@ def _solve(problem, seed, time_limit=60.0):
 
 
 def _validate(problem, result, tmp_path, seed=0):
-    from tmpc.runtime.plans import plan_document, write_json_atomic
-    from tmpc.runtime.validate import validate_plan
-    doc = plan_document(problem, result, planner="unified", seed=seed, input_path=str(CLUTTER),
-                        setup_seconds=0.0)
-    path = tmp_path / f"plan-{seed}.json"
-    write_json_atomic(path, doc)
-    return doc, validate_plan(problem.world, str(path))
+    return validate_result(problem, result, tmp_path / f"plan-{seed}.json", "unified", seed)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

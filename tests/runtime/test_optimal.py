@@ -12,7 +12,7 @@ import pytest
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from tests.support import CLUTTER, run_tmpc
+from tests.support import CLUTTER, run_tmpc, validate_result
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalPlanner, Transition, lazy_astar
 
 # clutter_problem_1: the bundled 1-stick clutter problem, shared (tests/conftest.py)
@@ -92,13 +92,7 @@ def _solve(problem, seed, **opts):
 
 
 def _validate(problem, result, tmp_path, seed=0):
-    from tmpc.runtime.plans import plan_document, write_json_atomic
-    from tmpc.runtime.validate import validate_plan
-    doc = plan_document(problem, result, planner="optimal", seed=seed, input_path=str(CLUTTER),
-                        setup_seconds=0.0)
-    path = tmp_path / f"plan-{seed}.json"
-    write_json_atomic(path, doc)
-    return doc, validate_plan(problem.world, str(path))
+    return validate_result(problem, result, tmp_path / f"plan-{seed}.json", "optimal", seed)
 
 
 @pytest.mark.parametrize("seed", [0, 1])
