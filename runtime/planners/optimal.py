@@ -347,10 +347,8 @@ class OptimalPlanner:
 
     def _portals_of(self, mid: int):
         """(entry configurations, exit configurations) of a mode, or None if it has no exit."""
-        for m, (ins, outs) in self._portals():
-            if m == mid:
-                return self.Q[ins], self.Q[outs]
-        return None
+        got = self._portals().get(mid)
+        return None if got is None else (self.Q[got[0]], self.Q[got[1]])
 
     def _sample_mode(self, mode: Mode) -> bool:
         """A batch of samples in ``mode`` and the transitions they reach; True if a goal mode
@@ -469,7 +467,7 @@ class OptimalPlanner:
             cols.append(np.array([self.bridge[v][0] for v in src], np.int64))
             vals.append(np.zeros(len(src)))
         if self.opt.portals:
-            for a, b in self._portal_edges():
+            for a, b in self._portals().values():
                 ra, rb = np.meshgrid(a, b, indexing="ij")
                 w = np.stack([self.p.cost(self.Q[b], self.Q[x]) for x in a])
                 rows += [ra.ravel(), rb.ravel()]
@@ -488,11 +486,7 @@ class OptimalPlanner:
             r, c, w = r[keep], c[keep], w[keep]
         return csr_matrix((w, (r, c)), shape=(n, n))
 
-    def _portal_edges(self):
-        for _, pair in self._portals():
-            yield pair
-
-    def _portals(self):
+    def _portals(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Per mode, (entries, exits): the vertices where the robot arrives in the mode (the
         start, bridges) and those where it leaves it (transition and goal vertices). Every
         entry is joined to every exit: the straight motion between them is often free and is
@@ -506,10 +500,8 @@ class OptimalPlanner:
         for g in self.goals:
             if g not in entries.get(self.node_mode[g], ()):
                 exits.setdefault(self.node_mode[g], []).append(g)
-        for mid, ins in entries.items():
-            outs = exits.get(mid)
-            if outs:
-                yield mid, (np.asarray(ins, np.int64), np.asarray(outs, np.int64))
+        return {mid: (np.asarray(ins, np.int64), np.asarray(exits[mid], np.int64))
+                for mid, ins in entries.items() if exits.get(mid)}
 
     def _neighbours(self, mid: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
@@ -623,15 +615,12 @@ class OptimalPlanner:
         resolution: most edges that fail show it at a coarse step already (a state of the
         segment collides), and only the edges of a path found are checked at every step
         (:meth:`_confirm`)."""
-        todo: dict[int, list[tuple[int, int]]] = {}
+        todo: dict[int, dict[tuple[int, int], None]] = {}      # per mode, keys in order
         for u, v in pairs:
-            key = _key(u, v)
-            if key not in self.edge_ok and self._valid(u, v) is None and key not in \
-                    todo.setdefault(self.node_mode[u], []):
-                todo[self.node_mode[u]].append(key)
+            if self._valid(u, v) is None:
+                todo.setdefault(self.node_mode[u], {})[_key(u, v)] = None
         for mid, keys in todo.items():
-            if not keys:
-                continue
+            keys = list(keys)
             if self._checks_left <= 0:
                 raise _OutOfChecks
             self._checks_left -= len(keys)
