@@ -307,6 +307,22 @@ _TABLE = (
     Code("E591", ERROR, "`tmpc eval --predicate` / `tmpc sample`: an argument whose type does not "
                         "fit the parameter"),
 
+    # Repair (`tmpc repair`)
+    Code("E840", ERROR, "a repair store that cannot be opened or is not a repair store"),
+    Code("E841", ERROR, "a repair store in use by another process"),
+    Code("E842", ERROR, "a repair store made for another domain, action or run"),
+    Code("E843", ERROR, "a malformed line of an observations file (file:line)"),
+    Code("E844", ERROR, "`tmpc repair --action`: an unknown action, wrong arguments, or a "
+                        "precondition repair cannot read"),
+    Code("E845", ERROR, "a formula or template that does not fit the action's parameters or is "
+                        "not made of templates"),
+    Code("E846", ERROR, "`tmpc repair`: a missing or malformed option (--controller, "
+                        "--observations, --db)"),
+    Code("E847", ERROR, "`tmpc repair --experiment`: an unknown experiment or a missing manifest "
+                        "or truth file"),
+    Code("E848", ERROR, "the repaired domain could not be written back"),
+    Code("E849", ERROR, "a repair store that already holds observations, without --resume"),
+
     # Plans (`tmpc validate`, `tmpc view`)
     Code("E800", ERROR, "a plan file that cannot be read or is not valid JSON"),
     Code("E801", ERROR, "a plan file that is neither a tmpc plan object nor an array of states"),

@@ -78,6 +78,11 @@ def cmd_view(args) -> int:
     return run_view(args)
 
 
+def cmd_repair(args) -> int:
+    from tmpc.runtime.cli.repair import run_repair
+    return run_repair(args)
+
+
 def cmd_bench(args) -> int:
     from tmpc.runtime.cli.bench import run_bench
     return run_bench(args)
@@ -93,6 +98,7 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "run": (cmd_run, "task and motion planning: a collision-free, action-annotated trajectory"),
     "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
+    "repair": (cmd_repair, "repair an action's geometric precondition from observed executions"),
     "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
     "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
@@ -230,6 +236,38 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("action", choices=("info", "clear"))
         p.add_argument("parts", nargs="*", metavar="PART",
                        help="runs, artifacts, exports, collision, robots, jax (default: all)")
+    elif name == "repair":
+        p.add_argument("input", metavar="INPUT", nargs="?", help="a run configuration or "
+                       "artifact (with --experiment: default examples/repair/expN.toml)")
+        p.add_argument("--action", metavar="NAME", help='the action to repair: "NAME" or '
+                       '"NAME ARG..."')
+        p.add_argument("--controller", metavar="KIND:SPEC", help="sim:TRUTH (a hidden DSL "
+                       "formula, or sim:@FILE) or py:MODULE:FUNCTION")
+        p.add_argument("--observations", metavar="FILE.jsonl", help="recorded executions")
+        p.add_argument("--db", metavar="STORE", help="the SQLite store of observations and "
+                       "repairs")
+        p.add_argument("--resume", action="store_true", help="continue from the store")
+        p.add_argument("--write", action="store_true", help="write the repaired precondition "
+                       "back into the domain")
+        p.add_argument("--report", metavar="DIR", help="report.json, table.md and plots")
+        p.add_argument("--experiment", type=POSITIVE_INT, metavar="N",
+                       help="run the thesis's experiment N (1, 2, 3)")
+        p.add_argument("--trials", type=POSITIVE_INT, help="trials of --experiment (default: "
+                       "the thesis's)")
+        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--time-limit", type=SECONDS, default=None, metavar="S",
+                       help="per loop (trial)")
+        p.add_argument("--sampling", choices=("naive", "active"), default=None,
+                       help="how states are drawn (default active; experiments: the thesis's)")
+        p.add_argument("--search-seconds", type=SECONDS, default=10.0, metavar="S",
+                       help="time of one repair's edit search (default 10)")
+        p.add_argument("--max-edits", type=POSITIVE_INT, default=3,
+                       help="edits per repair (default 3)")
+        p.add_argument("--stop-unexpected", type=POSITIVE_INT, default=None, metavar="N",
+                       help="stop after N unexpected observations")
+        p.add_argument("--stop-expected", type=POSITIVE_INT, default=1000, metavar="N",
+                       help="stop after N expected observations in a row (default 1000)")
+        p.add_argument("--max-observations", type=POSITIVE_INT, default=5000, metavar="N")
     elif name == "bench":
         p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
                        "artifacts (one problem each)")

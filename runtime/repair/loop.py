@@ -1,0 +1,348 @@
+"""The repair loop (thesis Fig. 3.2) and the thesis's experiments.
+
+Each turn draws a state (naively, or by active counterexample sampling from the difference of
+the last two formulas, §3.5.1), executes the action with the controller, stores the observation
+(committed before use), and compares the outcome with the model. An unexpected outcome starts a
+repair: the constraint hypothesis (the edit search of :mod:`.search` on the unexpected
+observations and as many expected ones, the nearest to the boundary, with a held-back set for
+ties) and the effect hypothesis (the action applies as modelled but its effects are what was
+observed) are scored in the same error, and the lower one is kept; the constraint wins ties.
+Every random draw of turn ``k`` comes from ``default_rng([seed, trial, k])``, so a resumed loop
+draws what an uninterrupted one would have.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from tmpc.lang import ast as A
+from tmpc.runtime.repair.domain import parse_truth
+from tmpc.runtime.repair.model import (
+    KAPPA,
+    TEMPLATES,
+    Features,
+    Formula,
+    Instance,
+    predicts,
+    signed,
+)
+from tmpc.runtime.repair.model import error as formula_error
+from tmpc.runtime.repair.search import ZERO, Problem, search
+from tmpc.runtime.repair.store import Observation, RepairStep, Store
+from tmpc.runtime.repair.world import read_observations
+
+
+@dataclass
+class LoopConfig:
+    sampling: str = "active"          # "naive" | "active"
+    #: under active sampling, the probability of a naive draw anyway (§3.5.1)
+    naive_probability: float = 0.2
+    #: a counterexample must be this far outside the other formula (m / rad), against
+    #: tolerance flip-flops at the boundary (MATH.md §C.3c)
+    margin: float = 1e-3
+    #: active sampling also probes the current boundary: states inside the formula with every
+    #: parameter grown by this fraction but outside it, and inside it but outside it shrunk
+    probe: float = 0.25
+    search_seconds: float = 10.0
+    max_edits: int = 3
+    stop_unexpected: int | None = None
+    stop_expected_run: int | None = 1000
+    max_observations: int = 5000
+    time_limit: float | None = None
+
+
+@dataclass
+class LoopResult:
+    formula: Formula
+    observations: list[Observation]
+    repairs: list[RepairStep]
+    status: str
+    ties: list[str] = field(default_factory=list)
+
+    @property
+    def unexpected(self) -> int:
+        return sum(not o.expected for o in self.observations)
+
+
+def _feats_of_coords(rw, coords: list[dict]) -> Features:
+    """Features straight from drawn coordinates (equal to the DSL helpers' values at the state
+    built from them; tests/runtime/test_repair.py checks that)."""
+    t, truth = {}, {}
+    for inst in rw.cont:
+        tpl = TEMPLATES[inst.name]
+        vals = np.array([np.atleast_1d(c[inst.args][tpl.coords]) for c in coords], float)
+        t[inst] = tpl.feature(vals)
+    for inst in rw.disc:
+        truth[inst] = np.array([bool(c[inst]) for c in coords])
+    return Features(t, truth, np.zeros(len(coords), bool))
+
+
+def _without_each(f: Formula) -> list[Formula]:
+    """``f`` with one literal dropped, for each literal."""
+    out = [replace(f, discrete=f.discrete[:k] + f.discrete[k + 1:])
+           for k in range(len(f.discrete))]
+    for c, clause in enumerate(f.clauses):
+        for k in range(len(clause)):
+            out.append(replace(f, clauses=f.clauses[:c] + (clause[:k] + clause[k + 1:],)
+                               + f.clauses[c + 1:]))
+    return out
+
+
+def _differ(a: Formula, b: Formula) -> bool:
+    return a.key() != b.key() or not np.allclose(a.thetas(), b.thetas())
+
+
+class Sampled:
+    """States drawn by the loop and executed by a controller (sim or py)."""
+
+    recorded = False
+
+    def __init__(self, rw, controller, cfg: LoopConfig):
+        self.rw, self.controller, self.cfg = rw, controller, cfg
+
+    def draw(self, rng, previous: Formula, current: Formula,
+             rivals: tuple[Formula, ...] = ()) -> tuple[dict, str]:
+        """Naive coordinates, or under active sampling a counterexample candidate: a point of
+        one formula at least ``margin`` outside the other, for the last repair's old and new
+        formulas and for the new one and each formula that fit the data as well (the tie a
+        counterexample can break)."""
+        rw, cfg = self.rw, self.cfg
+        pairs = [(a, b) for r in (previous, *rivals) if _differ(r, current)
+                 for a, b in ((r, current), (current, r))]
+        if len(current.thetas()):
+            # and the current boundary itself: just outside it, and just inside it
+            th = current.thetas()
+            pairs += [(current.with_thetas(th * (1 + cfg.probe)), current),
+                      (current, current.with_thetas(th * (1 - cfg.probe)))]
+        # and each literal's necessity: states the formula without it admits and it does not
+        pairs += [(g, current) for g in _without_each(current)]
+        if cfg.sampling == "active" and pairs and rng.random() >= cfg.naive_probability:
+            for j in rng.permutation(len(pairs)):
+                inside, other = pairs[j]
+                cs = rw.clause_coords(inside, rng)
+                f = _feats_of_coords(rw, cs)
+                hit = np.flatnonzero(predicts(inside, f) & (signed(other, f) > cfg.margin))
+                if len(hit):
+                    return cs[hit[0]], "active"
+        return rw.naive_coords(rng), "naive"
+
+    def next(self, seq: int, rng, previous: Formula, current: Formula,
+             rivals: tuple[Formula, ...] = ()) -> Observation | None:
+        coords, how = self.draw(rng, previous, current, rivals)
+        state = self.rw.state(coords, rng)
+        feats = self.rw.features(state)
+        out = self.controller(state, feats)
+        t = self.rw.target
+        return Observation(t.action.name.text, tuple(t.binding.values()), state, out.success,
+                           out.result, feats, True, how, seq)
+
+
+class Recorded:
+    """Observations read from a JSON-lines file, in order (``--observations FILE``)."""
+
+    recorded = True
+
+    def __init__(self, rw, path: str):
+        self.rw, self.items = rw, read_observations(path, rw)
+        self.path = path
+
+    def next(self, seq: int, rng, previous: Formula, current: Formula,
+             rivals: tuple[Formula, ...] = ()) -> Observation | None:
+        for n, state, success, result, bad in self.items:
+            if n <= self.skip:
+                continue
+            try:
+                feats = self.rw.features(state, f"{self.path}:{n}: state")
+            except Exception as exc:      # a state the world cannot read: name the line
+                raise bad(str(getattr(exc, "diagnostics", [exc])[0].message
+                              if hasattr(exc, "diagnostics") else exc)) from None
+            t = self.rw.target
+            return Observation(t.action.name.text, tuple(t.binding.values()), state, success,
+                               result, feats, True, f"file:{n}", n)
+        return None
+
+    skip = 0
+
+
+# ---------------------------------------------------------------------------------------------
+# one repair
+
+
+def _atoms(s: dict) -> set:
+    return set((s.get("mode") or {}).get("atoms", []))
+
+
+def _delta(o: Observation) -> tuple:
+    """The observed effects: (atoms added, atoms deleted)."""
+    a, b = _atoms(o.state), _atoms(o.result)
+    return (tuple(sorted(b - a)), tuple(sorted(a - b)))
+
+
+def _explains(effect: tuple, o: Observation) -> bool:
+    """Whether effects ``(add, delete)`` turn the observation's state into its result."""
+    return (_atoms(o.state) - set(effect[1])) | set(effect[0]) == _atoms(o.result)
+
+
+def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg: LoopConfig,
+                effect: tuple) -> tuple[Formula, RepairStep, tuple]:
+    """Repair ``current`` against every observation so far; returns the new formula, the step
+    to store and the effect hypothesis in force."""
+    t0 = time.perf_counter()
+    feats = rw.features_of(observations)
+    wrong = predicts(current, feats) != feats.success
+    unexpected = list(np.flatnonzero(wrong))
+    rest = np.flatnonzero(~wrong)
+    # |E| = |U| expected observations, the nearest to the current boundary (ties at random);
+    # held back: up to twice as many others, for tie-breaks
+    sd = np.abs(signed(current, feats))[rest]
+    order = rest[np.lexsort((rng.random(len(rest)), sd))]
+    fit = unexpected + list(order[:len(unexpected)])
+    others = order[len(unexpected):]
+    held = list(rng.permutation(others)[:max(20, 2 * len(unexpected))])
+    result = None
+    for _round in range(4):
+        prob = Problem(feats.take(fit), feats.take(held) if held else feats.take([]),
+                       rw.target.instances)
+        result = search(prob, current, time_limit=cfg.search_seconds, max_edits=cfg.max_edits)
+        miss = np.flatnonzero(predicts(result.best.formula, feats) != feats.success)
+        new = [i for i in miss if i not in set(fit)]
+        if not new:
+            break
+        fit = fit + new[:max(8, len(unexpected))]
+        held = [i for i in held if i not in set(fit)]
+    best = result.best.formula
+    constraint_error = float(formula_error(best, feats))
+    # effect hypothesis: the latest unexpected observation's effects are the action's
+    latest = observations[unexpected[-1]] if unexpected else observations[-1]
+    hyp = _delta(latest)
+    applies = predicts(current, feats)
+    effect_error = KAPPA ** 2 * sum(
+        (not _explains(hyp, o)) if a else o.success for o, a in zip(observations, applies))
+    if effect_error < constraint_error - ZERO and hyp != effect:
+        kept, err, effect = current, effect_error, hyp
+        hypothesis = "effects " + json.dumps({"add": list(hyp[0]), "delete": list(hyp[1])})
+    else:
+        kept, hypothesis, err = best, "constraint", constraint_error
+    step = RepairStep(observations[-1].seq, kept.text(True), current.text(True), err,
+                      hypothesis, len(best.history), result.evaluated, time.perf_counter() - t0,
+                      result.trace, [c.formula.text(True) for c in result.ties[:5]])
+    return kept, step, effect
+
+
+# ---------------------------------------------------------------------------------------------
+# the loop
+
+
+def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConfig, seed: int,
+             on_event=None) -> LoopResult:
+    """Run (or resume, from what ``store`` holds for ``trial``) the repair loop."""
+    scope = rw.scope
+    observations = store.observations(trial)
+    steps = store.repairs(trial)
+    current = parse_truth(steps[-1].formula, rw.target, scope) if steps else start
+    previous = parse_truth(steps[-1].previous, rw.target, scope) if steps else start
+    effect = _effect_delta(rw)
+    for st in steps:
+        if st.hypothesis.startswith("effects "):
+            got = json.loads(st.hypothesis[len("effects "):])
+            effect = (tuple(got["add"]), tuple(got["delete"]))
+    rivals = tuple(parse_truth(t, rw.target, scope) for t in steps[-1].ties) if steps else ()
+    if source.recorded:
+        source.skip = max((o.seq for o in observations), default=0)
+    t0 = time.perf_counter()
+    status = "observations limit"
+    run = 0
+    for o in reversed(observations):
+        if not o.expected:
+            break
+        run += 1
+    def repair():
+        """Repair after the latest observation; its draws come from a stream of their own, so
+        a repair redone on resume (killed after the observation was stored) draws the same."""
+        rng = np.random.default_rng([seed, trial, len(observations) - 1, 1])
+        new, step, eff = repair_once(rw, observations, current, rng, cfg, effect)
+        store.add_repair(trial, step)
+        steps.append(step)
+        if on_event is not None:
+            on_event("repair", step)
+        return current, new, tuple(parse_truth(t, rw.target, scope) for t in step.ties), eff
+
+    if observations and not observations[-1].expected and \
+            (not steps or steps[-1].observation != observations[-1].seq):
+        previous, current, rivals, effect = repair()
+    while len(observations) < cfg.max_observations:
+        unexpected = sum(not o.expected for o in observations)
+        if cfg.stop_unexpected is not None and unexpected >= cfg.stop_unexpected:
+            status = "unexpected limit"
+            break
+        if cfg.stop_expected_run is not None and run >= cfg.stop_expected_run:
+            status = "converged"
+            break
+        if cfg.time_limit is not None and time.perf_counter() - t0 > cfg.time_limit:
+            status = "time limit"
+            break
+        k = len(observations)
+        rng = np.random.default_rng([seed, trial, k])
+        obs = source.next(k, rng, previous, current, rivals)
+        if obs is None:
+            status = "observations exhausted"
+            break
+        f = rw.features_of([obs])
+        predicted = bool(predicts(current, f)[0])
+        obs.expected = predicted == obs.success and (not obs.success or _explains(effect, obs))
+        store.add_observation(trial, obs)
+        observations.append(obs)
+        if on_event is not None:
+            on_event("observation", obs)
+        if obs.expected:
+            run += 1
+            continue
+        run = 0
+        previous, current, rivals, effect = repair()
+    ties = steps[-1].ties if steps else []
+    return LoopResult(current, observations, steps, status, ties)
+
+
+def _effect_delta(rw) -> tuple:
+    """The action's modelled effects, ground: (atoms added, atoms deleted)."""
+    b = rw.target.binding
+    adds, dels = [], []
+
+    def ground(atom) -> str:
+        return "(" + " ".join([atom.pred.text, *(b.get(t.name.text, t.name.text)
+                                                 for t in atom.args)]) + ")"
+
+    def walk(e):
+        if isinstance(e, A.AndEffect):
+            for p in e.parts:
+                walk(p)
+        elif isinstance(e, A.AddEffect):
+            adds.append(ground(e.atom))
+        elif isinstance(e, A.DelEffect):
+            dels.append(ground(e.atom))
+    walk(rw.target.action.effect)
+    return (tuple(sorted(adds)), tuple(sorted(dels)))
+
+
+def comparable(f: Formula, truth: Formula) -> float | None:
+    """The largest parameter difference when ``f`` has ``truth``'s structure, else None."""
+    if f.key() != truth.key():
+        return None
+    a = {lit.instance: lit.theta for c in f.clauses for lit in c}
+    b = {lit.instance: lit.theta for c in truth.clauses for lit in c}
+    return max((abs(a[i] - b[i]) for i in b), default=0.0)
+
+
+def structurally_correct(f: Formula, truth: Formula) -> bool:
+    if f.key() != truth.key():
+        return False
+    a = {lit.instance: lit.theta for c in f.clauses for lit in c}
+    return all(abs(a[lit.instance] - lit.theta) <= TEMPLATES[lit.instance.name].tolerance
+               for c in truth.clauses for lit in c)
+
+
+__all__ = ["Instance", "LoopConfig", "LoopResult", "Recorded", "Sampled", "comparable",
+           "repair_once", "run_loop", "structurally_correct"]
