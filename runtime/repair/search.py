@@ -11,7 +11,9 @@ parameters re-optimised by gradient after every edit.
   misclassified, so each parameter is then moved to the middle of its zero-error interval (a
   maximum-margin tie-break: between the nearest observations of each outcome).
 - **Ties** between formulas of equal error go to the lower error on held-back observations, then
-  to the smaller formula, then to fewer edits; the ties are reported for a person to choose from.
+  to the smaller change (a replacement counts as a removal and an addition, and so does a new
+  clause: a repair keeps what the data does not contradict), then to the smaller formula; the ties are reported for a person
+  to choose from.
 """
 
 from __future__ import annotations
@@ -39,7 +41,15 @@ class Candidate:
     edits: int
 
     def rank(self) -> tuple:
-        return (round(self.error, 12), round(self.held_error, 12), self.formula.size, self.edits)
+        return (round(self.error, 12), round(self.held_error, 12), self.changes,
+                self.formula.size)
+
+    @property
+    def changes(self) -> int:
+        """How much the formula was changed: a replacement is a removal and an addition, and a
+        new clause (a new disjunct of the set) counts as much."""
+        return sum(2 if h.startswith(("replace", "add clause")) else 1
+                   for h in self.formula.history)
 
 
 @dataclass
@@ -145,7 +155,39 @@ def optimise(prob: Problem, f: Formula) -> Formula:
                      bounds=bounds, options={"maxiter": 200})
         if r.fun < best_v - ZERO:
             best_x, best_v = r.x, float(r.fun)
-    return f.with_thetas(_centre(prob, f, np.asarray(best_x, float), bounds))
+    x = np.asarray(best_x, float)
+    if best_v > ZERO:
+        x = _sweep(prob, f, x, bounds)
+    return f.with_thetas(_centre(prob, f, x, bounds))
+
+
+def _cuts(prob: Problem, lit: Literal, lo: float, hi: float) -> np.ndarray:
+    t = np.unique(np.clip(prob.feats.t[lit.instance], lo, hi))
+    return np.concatenate([[lo], t, [hi]])
+
+
+def _sweep(prob: Problem, f: Formula, x: np.ndarray, bounds, sweeps: int = 3) -> np.ndarray:
+    """Coordinate descent with an exact line search: the error is piecewise in each parameter
+    with breaks at the feature values, and L-BFGS-B can stop at a kink of it; trying every
+    piece's ends and middle of one parameter at a time finds what the gradient missed."""
+    lits = [lit for c in f.clauses for lit in c]
+    best = float(error(f, prob.feats, x))
+    for _ in range(sweeps):
+        before = best
+        for k, lit in enumerate(lits):
+            cuts = _cuts(prob, lit, *bounds[k])
+            trial = np.unique(np.concatenate([cuts, (cuts[:-1] + cuts[1:]) / 2,
+                                              np.clip(cuts - 1e-9, *bounds[k]),
+                                              np.clip(cuts + 1e-9, *bounds[k])]))
+            for v in trial:
+                y = x.copy()
+                y[k] = v
+                e = float(error(f, prob.feats, y))
+                if e < best - ZERO:
+                    best, x = e, y
+        if best <= ZERO or best >= before - ZERO:
+            break
+    return x
 
 
 def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
@@ -157,8 +199,7 @@ def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
     for k, lit in enumerate(lits):
         base = error(f, feats, x)
         lo, hi = bounds[k]
-        t = np.unique(np.clip(feats.t[lit.instance], lo, hi))
-        cuts = np.concatenate([[lo], t, [hi]])
+        cuts = _cuts(prob, lit, lo, hi)
         # the error is piecewise in theta with breaks at the feature values: test every piece's
         # midpoint, then grow the interval of pieces around x[k] that keep the error
         mids = (cuts[:-1] + cuts[1:]) / 2
