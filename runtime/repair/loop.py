@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from tmpc.lang import ast as A
+from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.repair.domain import parse_truth
 from tmpc.runtime.repair.model import (
     KAPPA,
@@ -144,6 +145,8 @@ class Recorded:
     """Observations read from a JSON-lines file, in order (``--observations FILE``)."""
 
     recorded = True
+    #: lines up to this one are already in the store (a resumed run)
+    skip = 0
 
     def __init__(self, rw, path: str):
         self.rw, self.items = rw, read_observations(path, rw)
@@ -155,16 +158,13 @@ class Recorded:
             if n <= self.skip:
                 continue
             try:
-                feats = self.rw.features(state, f"{self.path}:{n}: state")
-            except Exception as exc:      # a state the world cannot read: name the line
-                raise bad(str(getattr(exc, "diagnostics", [exc])[0].message
-                              if hasattr(exc, "diagnostics") else exc)) from None
+                feats = self.rw.features(state, "state")
+            except TmpcError as exc:      # a state the world cannot read: name the line
+                raise bad(exc.diagnostics[0].message) from None
             t = self.rw.target
             return Observation(t.action.name.text, tuple(t.binding.values()), state, success,
                                result, feats, True, f"file:{n}", n)
         return None
-
-    skip = 0
 
 
 # ---------------------------------------------------------------------------------------------

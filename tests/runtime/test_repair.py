@@ -295,6 +295,12 @@ def test_recorded_observations_drive_repair_and_bad_lines_name_their_line(rw, tm
     assert bad.returncode == 1
     assert f"{obs}:8:" in bad.stderr and "E843" in bad.stderr and "outcome" in bad.stderr
     assert "Traceback" not in bad.stderr
+    lines[7] = json.dumps({"state": {"joints": {"no_such_joint": 1.0}}, "action": "pick",
+                           "arguments": ["panda_hand_tcp", "cube"], "outcome": "failure"})
+    obs.write_text("\n".join(lines) + "\n")
+    bad = run_tmpc("repair", EXP1, "--action", "pick", "--observations", obs,
+                   "--db", tmp_path / "u.sqlite")
+    assert bad.returncode == 1 and f"{obs}:8:" in bad.stderr and "no_such_joint" in bad.stderr
 
 
 @pytest.mark.parametrize("argv,code", [
