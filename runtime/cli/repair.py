@@ -68,7 +68,8 @@ def _fresh_or_resume(store: Store, resume: bool) -> None:
 
 
 def _config(args) -> LoopConfig:
-    return LoopConfig(sampling=args.sampling or "active", search_seconds=args.search_seconds,
+    default = "active" if args.experiment is None else None     # experiments: the thesis's
+    return LoopConfig(sampling=args.sampling or default, search_seconds=args.search_seconds,
                       max_edits=args.max_edits, stop_unexpected=args.stop_unexpected,
                       stop_expected_run=args.stop_expected,
                       max_observations=args.max_observations, time_limit=args.time_limit)

@@ -41,7 +41,7 @@ class Template:
     dim: int
     unit: str
     bounds: tuple[float, float]
-    #: how close a parameter must be to count as structurally correct (the issue's 0.02 m / 0.05 rad)
+    #: how close a parameter must be to count as structurally correct (0.02 m / 0.05 rad)
     tolerance: float
     #: range of the naive sampler in each coordinate: offsets up to the workspace radius, angles
     #: over their full range

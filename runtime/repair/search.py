@@ -12,8 +12,8 @@ parameters re-optimised by gradient after every edit.
   maximum-margin tie-break: between the nearest observations of each outcome).
 - **Ties** between formulas of equal error go to the lower error on held-back observations, then
   to the smaller change (a replacement counts as a removal and an addition, and so does a new
-  clause: a repair keeps what the data does not contradict), then to the smaller formula; the ties are reported for a person
-  to choose from.
+  clause: a repair keeps what the data does not contradict), then to the smaller formula; the
+  ties are reported for a person to choose from.
 """
 
 from __future__ import annotations

@@ -249,7 +249,7 @@ def test_sigkill_mid_loop_then_resume_keeps_every_observation(tmp_path):
     assert whole.stdout.splitlines()[0] == again.stdout.splitlines()[0]
 
 
-# ---- write-back and recorded observations ---------------------------------------------------------
+# ---- write-back and recorded observations ----------------------------------------------------
 
 def test_write_back_keeps_comments_and_checks(rw, tmp_path):
     from tmpc.lang.program import check_paths
