@@ -46,6 +46,9 @@ class Template:
     #: range of the naive sampler in each coordinate: offsets up to the workspace radius, angles
     #: over their full range
     span: float
+    #: the largest value the feature can take (angles: their range); a parameter this large
+    #: makes the literal hold everywhere
+    full: float = math.inf
 
     def feature(self, g: np.ndarray) -> np.ndarray:
         """t(g) for coordinates g (N, dim): the set is {t <= theta}."""
@@ -59,12 +62,14 @@ class Template:
         return CPZ.interval([-theta], [theta])
 
 
-_ANGLE = dict(unit="rad", bounds=(0.0, math.pi), tolerance=0.05, span=math.pi, dim=1)
+_ANGLE = dict(unit="rad", bounds=(0.0, math.pi), tolerance=0.05, span=math.pi, dim=1,
+              full=math.pi)
 TEMPLATES: dict[str, Template] = {
     "dist": Template("dist", "offset", 3, "m", (0.0, 2.0), 0.02, 0.8),
     "roll-aligned": Template("roll-aligned", "relative-roll", **_ANGLE),
     "pitch-aligned": Template("pitch-aligned", "relative-pitch",
-                              **{**_ANGLE, "span": math.pi / 2}),
+                              **{**_ANGLE, "span": math.pi / 2, "full": math.pi / 2,
+                                 "bounds": (0.0, math.pi / 2)}),
     "yaw-aligned": Template("yaw-aligned", "relative-yaw", **_ANGLE),
 }
 
@@ -152,6 +157,8 @@ class Formula:
         geo = self.geometric_text(precise=precise)
         if geo != "(and)":
             parts.append(geo)
+        if not parts:
+            return "(and)"
         return parts[0] if len(parts) == 1 else "(and " + " ".join(parts) + ")"
 
     def instances(self) -> set[Instance]:

@@ -158,7 +158,17 @@ def optimise(prob: Problem, f: Formula) -> Formula:
     x = np.asarray(best_x, float)
     if best_v > ZERO:
         x = _sweep(prob, f, x, bounds)
-    return f.with_thetas(_centre(prob, f, x, bounds))
+    return simplify(f.with_thetas(_centre(prob, f, x, bounds)))
+
+
+def simplify(f: Formula) -> Formula:
+    """``f`` without the literals that hold everywhere (an angle band as wide as the angle's
+    range): they change no prediction, and a person should not have to read them."""
+    clauses = tuple(tuple(lit for lit in c if lit.theta < lit.instance.template.full)
+                    for c in f.clauses)
+    if all(clauses) or len(clauses) == 1:
+        return replace(f, clauses=clauses)
+    return replace(f, clauses=((),))     # a clause that holds everywhere: so does the DNF
 
 
 def _cuts(prob: Problem, lit: Literal, lo: float, hi: float) -> np.ndarray:
@@ -216,7 +226,11 @@ def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
             a -= 1
         while b < len(mids) - 1 and ok[b + 1]:
             b += 1
-        x[k] = (cuts[a] + cuts[b + 1]) / 2
+        full = lit.instance.template.full
+        if b == len(mids) - 1 and hi >= full:
+            x[k] = full      # nothing above restricts it: the literal holds everywhere
+        else:
+            x[k] = (cuts[a] + cuts[b + 1]) / 2
     return x
 
 
