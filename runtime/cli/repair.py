@@ -150,7 +150,8 @@ def _experiment(args) -> int:
     cfg = _config(args)
     db = args.db or str(Path(args.report) / "store.sqlite")
     Path(args.report).mkdir(parents=True, exist_ok=True)
-    _say(f"experiment {exp.number}: {exp.what}; {trials} trials, store {db}")
+    _say(f"experiment {exp.number}: {exp.what}; {trials} trials, store {db}"
+         + (f" (stopping at {args.stop_unexpected} unexpected)" if args.stop_unexpected else ""))
     with Store(db, _meta(rw, f"experiment {exp.number}")) as store:
         _fresh_or_resume(store, args.resume)
         report, results = run_experiment(
