@@ -2,5 +2,6 @@
 (define (problem pick-cube)
   (:domain pick)
   (:objects panda_hand_tcp - gripper cube - cube)
-  (:init (empty panda_hand_tcp))
+  (:init
+    (empty panda_hand_tcp))
   (:goal (holding panda_hand_tcp cube)))
