@@ -39,7 +39,7 @@ class Target:
     rename: dict[str, str]
     instances: list[Instance]
     start: Formula
-    #: discrete precondition atoms repair may not drop (none today: all are literals)
+    #: the domain's name (a store records it)
     domain_name: str
 
     @property
