@@ -18,7 +18,6 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.repair.domain import parse_truth
 from tmpc.runtime.repair.model import (
@@ -244,7 +243,7 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
     steps = store.repairs(trial)
     current = parse_truth(steps[-1].formula, rw.target, scope) if steps else start
     previous = parse_truth(steps[-1].previous, rw.target, scope) if steps else start
-    effect = _effect_delta(rw)
+    effect = rw.ground_effects()
     for st in steps:
         if st.hypothesis.startswith("effects "):
             got = json.loads(st.hypothesis[len("effects "):])
@@ -304,27 +303,6 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
         previous, current, rivals, effect = repair()
     ties = steps[-1].ties if steps else []
     return LoopResult(current, observations, steps, status, ties)
-
-
-def _effect_delta(rw) -> tuple:
-    """The action's modelled effects, ground: (atoms added, atoms deleted)."""
-    b = rw.target.binding
-    adds, dels = [], []
-
-    def ground(atom) -> str:
-        return "(" + " ".join([atom.pred.text, *(b.get(t.name.text, t.name.text)
-                                                 for t in atom.args)]) + ")"
-
-    def walk(e):
-        if isinstance(e, A.AndEffect):
-            for p in e.parts:
-                walk(p)
-        elif isinstance(e, A.AddEffect):
-            adds.append(ground(e.atom))
-        elif isinstance(e, A.DelEffect):
-            dels.append(ground(e.atom))
-    walk(rw.target.action.effect)
-    return (tuple(sorted(adds)), tuple(sorted(dels)))
 
 
 def comparable(f: Formula, truth: Formula) -> float | None:

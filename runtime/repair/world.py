@@ -154,10 +154,10 @@ class RepairWorld:
         return {"joints": dict(zip(m.q_names, (float(v) for v in q))),
                 "object_poses": object_poses, "mode": {"atoms": atoms}}
 
-    def effects(self, state_json: dict) -> dict:
-        """The state after the action's discrete effects (a success of the model's action)."""
-        atoms = set(state_json.get("mode", {}).get("atoms", []))
+    def ground_effects(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The action's modelled discrete effects, ground: (atoms added, atoms deleted)."""
         b = self.target.binding
+        adds, dels = [], []
 
         def ground(atom: A.Atom) -> str:
             return "(" + " ".join([atom.pred.text, *(b.get(t.name.text, t.name.text)
@@ -168,10 +168,16 @@ class RepairWorld:
                 for p in e.parts:
                     walk(p)
             elif isinstance(e, A.AddEffect):
-                atoms.add(ground(e.atom))
+                adds.append(ground(e.atom))
             elif isinstance(e, A.DelEffect):
-                atoms.discard(ground(e.atom))
+                dels.append(ground(e.atom))
         walk(self.target.action.effect)
+        return tuple(sorted(adds)), tuple(sorted(dels))
+
+    def effects(self, state_json: dict) -> dict:
+        """The state after the action's discrete effects (a success of the model's action)."""
+        adds, dels = self.ground_effects()
+        atoms = (set(state_json.get("mode", {}).get("atoms", [])) - set(dels)) | set(adds)
         return {**state_json, "mode": {**state_json.get("mode", {}), "atoms": sorted(atoms)}}
 
 
