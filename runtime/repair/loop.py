@@ -25,7 +25,6 @@ from tmpc.runtime.repair.model import (
     TEMPLATES,
     Features,
     Formula,
-    Instance,
     predicts,
     signed,
 )
@@ -321,6 +320,3 @@ def structurally_correct(f: Formula, truth: Formula) -> bool:
     return all(abs(a[lit.instance] - lit.theta) <= TEMPLATES[lit.instance.name].tolerance
                for c in truth.clauses for lit in c)
 
-
-__all__ = ["Instance", "LoopConfig", "LoopResult", "Recorded", "Sampled", "comparable",
-           "repair_once", "run_loop", "structurally_correct"]

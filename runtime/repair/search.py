@@ -242,17 +242,13 @@ def _initial(prob: Problem, f: Formula, inst: Instance, clause: tuple[Literal, .
     """A new literal's first parameter: just wide enough for the successes the clause holds."""
     feats = prob.feats
     trial = replace(f, clauses=(clause,))
-    prob_inside = _inside(trial, feats)
-    inside = prob_inside & feats.success
+    admitted = predicts(trial, feats)
+    inside = admitted & feats.success
     lo, hi = inst.template.bounds
     if inside.any():
         return float(min(hi, feats.t[inst][inside].max() * 1.01 + 1e-6))
-    return float(min(hi, max(lo, np.median(feats.t[inst][prob_inside]) if prob_inside.any()
+    return float(min(hi, max(lo, np.median(feats.t[inst][admitted]) if admitted.any()
                              else hi / 4)))
-
-
-def _inside(f: Formula, feats: Features) -> np.ndarray:
-    return predicts(f, feats)
 
 
 def edits(prob: Problem, f: Formula):
@@ -286,7 +282,7 @@ def edits(prob: Problem, f: Formula):
         if len(f.clauses) > 1:
             yield (f"remove clause {c + 1}", replace(f, clauses=f.clauses[:c] + f.clauses[c + 1:]))
     if len(f.clauses) < MAX_CLAUSES:
-        outside_success = ~_inside(f, prob.feats) & prob.feats.success
+        outside_success = ~predicts(f, prob.feats) & prob.feats.success
         for inst in prob.cont:
             t = prob.feats.t[inst][outside_success]
             theta = float(t.max() * 1.01) if len(t) else inst.template.bounds[1] / 4
