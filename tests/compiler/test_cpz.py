@@ -233,6 +233,7 @@ def test_4_7_lift_and_sparse_intersection():
     np.testing.assert_array_equal(same.G, np.hstack([full.G, np.zeros((2, 2))]))
 
 
+@pytest.mark.slow   # 6 s (16 rounds); the §4.6 union test covers the selector form
 def test_4_7_nested_union():
     S = cpz.union(cpz.union(DISK, BOX), CPZ.ball([-2, 0], 0.5))
     # the selectors drive the factors of the unused disjuncts to 0 sublinearly: 16 rounds
@@ -247,6 +248,7 @@ def test_halfspace_intersection():
     assert cpz.intersect_halfspace(DISK, [1, 1], 5) is DISK
 
 
+@pytest.mark.slow   # 4 s; the ball's inner-distance test covers ray casting by default
 def test_inner_distance_by_ray_casting():
     np.testing.assert_allclose(cpz.inner_distance(DISK, [(0.3, 0), (2, 0)], starts=8), [0.7, 0],
                                atol=1e-4)
