@@ -106,6 +106,8 @@ class CheckReport:
     workspace: Workspace
     diagnostics: list[Diagnostic]
     programs: list[CheckedProgram]
+    #: every program found, checked or not, with its modules (what an editor navigates)
+    sources: list[Program] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -323,16 +325,18 @@ def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
 def check_parsed(ws: Workspace, parsed: list[ParsedFile]) -> CheckReport:
     diags: list[Diagnostic] = [d for p in parsed for d in p.diagnostics]
     checked: list[CheckedProgram] = []
+    sources: list[Program] = []
     # Programs are checked even when a file has syntax errors, so an editor sees name and type
     # errors next to them (the reader returns a partial tree).
     for prog in build_programs(ws, parsed, diags):
         modules = resolve_includes(ws, prog.domain, diags)
         prog = Program(prog.domain, prog.problem, modules)
+        sources.append(prog)
         result, pdiags = prog.check()
         diags.extend(pdiags)
         if result is not None:
             checked.append(result)
-    return CheckReport(ws, _dedupe(diags), checked)
+    return CheckReport(ws, _dedupe(diags), checked, sources)
 
 
 def load_checked(paths: list[str | Path]) -> CheckedProgram:

@@ -3,7 +3,8 @@
 Every position tmpc shows a user comes from a :class:`Span` into a :class:`SourceFile`.
 Spans store 0-based character offsets; lines and columns are derived on demand.
 User-facing text uses 1-based lines and columns (``PATH:LINE:COL``); the language server uses
-0-based ones. :meth:`SourceFile.lsp_position` is the one place that converts.
+0-based ones counted in UTF-16 code units: :meth:`SourceFile.lsp_position` and
+:meth:`SourceFile.lsp_offset` are the one place that converts.
 """
 
 from __future__ import annotations
@@ -70,9 +71,28 @@ class SourceFile:
         return line + 1, offset - self._line_starts[line] + 1
 
     def lsp_position(self, offset: int) -> tuple[int, int]:
-        """0-based (line, character) for the language server protocol."""
+        """0-based (line, character) for the language server protocol, where ``character``
+        counts UTF-16 code units (LSP's default encoding): a character outside the Basic
+        Multilingual Plane (an emoji in a comment) counts 2. The inverse is :meth:`lsp_offset`."""
         line, col = self.line_col(offset)
-        return line - 1, col - 1
+        start = self._line_starts[line - 1]
+        return line - 1, _utf16_len(self.text[start:start + col - 1])
+
+    def lsp_offset(self, line: int, character: int) -> int:
+        """The character offset of a 0-based LSP (line, UTF-16 character) position, clamped to
+        the line (a position past its end means its end, as the protocol says)."""
+        if line >= self.line_count:
+            return len(self.text)
+        if line < 0:
+            return 0
+        start = self._line_starts[line]
+        end = self._line_starts[line + 1] - 1 if line + 1 < self.line_count else len(self.text)
+        units = 0
+        for i in range(start, end):
+            if units >= character:
+                return i
+            units += 2 if ord(self.text[i]) > 0xFFFF else 1
+        return end
 
     def offset(self, line: int, col: int) -> int:
         """Inverse of :meth:`line_col` (1-based in)."""
@@ -87,3 +107,8 @@ class SourceFile:
 
     def span(self, start: int, end: int) -> Span:
         return Span(self.path, start, end)
+
+
+def _utf16_len(text: str) -> int:
+    """Length of ``text`` in UTF-16 code units."""
+    return len(text) + sum(1 for ch in text if ord(ch) > 0xFFFF)

@@ -27,7 +27,8 @@ RANK = {"tmpc.lang": 0, "tmpc.stdlib": 0, "tmpc.compiler": 1, "tmpc.runtime": 2,
         "tmpc.runtime.cli": 3}
 #: modules whose functions may import tmpc modules lazily (start-up time, said in a comment)
 LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
-             "tmpc.runtime.cli.check"}     # `check --static` alone grounds and loads Z3/JAX
+             "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
+             "tmpc.runtime.cli.lsp"}       # the compiler (numpy) on the first hover, not at start
 #: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
 #: language server start without them
 HEAVY = {"jax", "jaxlib", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",

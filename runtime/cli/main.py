@@ -83,6 +83,11 @@ def cmd_repair(args) -> int:
     return run_repair(args)
 
 
+def cmd_lsp(args) -> int:
+    from tmpc.runtime.cli.lsp import run_lsp
+    return run_lsp(args)
+
+
 def cmd_bench(args) -> int:
     from tmpc.runtime.cli.bench import run_bench
     return run_bench(args)
@@ -100,6 +105,7 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
     "repair": (cmd_repair, "repair an action's geometric precondition from observed executions"),
     "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
+    "lsp": (cmd_lsp, "language server for editors (stdio; --tcp PORT)"),
     "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
 
@@ -236,6 +242,12 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("action", choices=("info", "clear"))
         p.add_argument("parts", nargs="*", metavar="PART",
                        help="runs, artifacts, exports, collision, robots, jax (default: all)")
+    elif name == "lsp":
+        p.add_argument("--stdio", action="store_true", help="speak LSP on stdin/stdout "
+                       "(the default)")
+        p.add_argument("--tcp", type=int, metavar="PORT", help="listen on 127.0.0.1:PORT instead")
+        p.add_argument("--no-worker", action="store_true", help="no worker process: witnesses, "
+                       "code lenses and static checks are off")
     elif name == "repair":
         p.add_argument("input", metavar="INPUT", nargs="?", help="a run configuration or "
                        "artifact (with --experiment: default examples/repair/expN.toml)")

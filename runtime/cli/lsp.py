@@ -1,0 +1,42 @@
+"""`tmpc lsp [--tcp PORT] [--no-worker]`: the language server (tmpc.lang.lsp) wired to the
+compiler's explain hook and the runtime's worker process. Logs go to stderr."""
+
+from __future__ import annotations
+
+import logging
+import sys
+
+from tmpc.lang.lsp import Hooks, create_server
+from tmpc.runtime.cli.exits import EXIT_OK
+
+
+def run_lsp(args) -> int:
+    def explain(scope, decl, lua_path):
+        # the compiler is imported on the first hover of a geometric predicate, not at start
+        from tmpc.compiler.explain import explain_predicate
+        return explain_predicate(scope, decl, lua_path)
+
+    logging.basicConfig(stream=sys.stderr, level=logging.WARNING,
+                        format="tmpc lsp: %(levelname)s %(message)s")
+    worker = None if args.no_worker or not _has_worker() else \
+        [sys.executable, "-m", "tmpc.runtime.editor"]
+    server = create_server(Hooks(explain=explain, worker_command=worker), _version())
+    if args.tcp is not None:
+        server.start_tcp("127.0.0.1", args.tcp)
+    else:
+        server.start_io()
+    return EXIT_OK
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("tmpc")
+    except PackageNotFoundError:
+        return "0"
+
+
+def _has_worker() -> bool:
+    """Whether the heavy-work worker (tmpc.runtime.editor) is installed."""
+    from importlib.util import find_spec
+    return find_spec("tmpc.runtime.editor") is not None
