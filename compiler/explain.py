@@ -10,7 +10,9 @@ the leaves. Pure Python over :mod:`tmpc.compiler.ir`: no JAX.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from functools import lru_cache
 
 from tmpc.compiler import ir
 from tmpc.compiler.lower import Lowerer
@@ -69,8 +71,7 @@ def explain_predicate(scope: Scope, decl: A.PredicateDecl, lua_path: str | None 
     if lua_path is None:
         return "implemented in Lua; no run configuration names a Lua file for this domain"
     try:
-        result = trace_module(load_lua_predicates(lua_path), {decl.name.text: decl},
-                              strict=False)
+        result = _trace_lua(lua_path, decl)
     except TmpcError as exc:
         return "the Lua file does not load: " + "; ".join(d.message for d in exc.diagnostics)
     node = result.traced.get(decl.name.text)
@@ -79,6 +80,21 @@ def explain_predicate(scope: Scope, decl: A.PredicateDecl, lua_path: str | None 
             "tracing could not capture it, so it is evaluated directly (W700)"
         return why
     return explain(node, names, and_mode)
+
+
+def _trace_lua(path: str, decl: A.PredicateDecl):
+    """The predicate traced from the Lua file, reused while the file is unchanged (a hover
+    would otherwise build a sandbox and trace the file each time)."""
+    try:
+        st = os.stat(path)
+    except OSError:                       # the loader says what is wrong with the path
+        return _traced.__wrapped__(path, 0, 0, decl)
+    return _traced(path, st.st_mtime_ns, st.st_size, decl)
+
+
+@lru_cache(maxsize=64)
+def _traced(path: str, mtime_ns: int, size: int, decl: A.PredicateDecl):
+    return trace_module(load_lua_predicates(path), {decl.name.text: decl}, strict=False)
 
 
 class _Text:

@@ -64,30 +64,34 @@ def _first_name(message: str) -> str | None:
     return m.group(1) if m else None
 
 
-def _sections(src: SourceFile):
-    for top in parse_sexpr(src).items:
-        if isinstance(top, SList) and head(top) == "define":
-            for sec in top.items[2:]:
-                if isinstance(sec, SList):
-                    yield head(sec), sec
+def _define(src: SourceFile) -> SList | None:
+    """The file's first ``(define ...)``."""
+    return next((top for top in parse_sexpr(src).items
+                 if isinstance(top, SList) and head(top) == "define"), None)
+
+
+def _sections(define: SList | None):
+    for sec in define.items[2:] if define is not None else ():
+        if isinstance(sec, SList):
+            yield head(sec), sec
 
 
 def _has_section(src: SourceFile, key: str) -> bool:
-    return any(h == key for h, _ in _sections(src))
+    return any(h == key for h, _ in _sections(_define(src)))
 
 
 def _add_to_section(src: SourceFile, key: str, text: str) -> T.TextEdit | None:
     """Insert ``text`` before the ``)`` of the file's ``(KEY ...)`` section, or add the section
     after the definition's header when there is none."""
-    for h, sec in _sections(src):
+    define = _define(src)
+    for h, sec in _sections(define):
         if h == key and sec.close is not None:
             at = position(src, sec.close.start)
             sep = "\n    " if key == ":predicates" else " "
             return T.TextEdit(range=T.Range(start=at, end=at), new_text=sep + text)
-    for top in parse_sexpr(src).items:
-        if isinstance(top, SList) and head(top) == "define" and len(top.items) > 1:
-            at = position(src, top.items[1].span.end)
-            return T.TextEdit(range=T.Range(start=at, end=at), new_text=f"\n  ({key} {text})")
+    if define is not None and len(define.items) > 1:
+        at = position(src, define.items[1].span.end)
+        return T.TextEdit(range=T.Range(start=at, end=at), new_text=f"\n  ({key} {text})")
     return None
 
 

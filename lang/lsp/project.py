@@ -13,9 +13,10 @@ import os
 import re
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
-from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error
+from tmpc.lang.diagnostics import Diagnostic, TmpcError
 from tmpc.lang.program import WORLD_SUFFIXES, CheckReport, Workspace, check_parsed, check_paths
 from tmpc.lang.reader import ParsedFile, parse_source
 from tmpc.lang.source import SourceFile
@@ -80,8 +81,9 @@ class ConfigInfo:
 class Project:
     roots: list[str] = field(default_factory=list)
     documents: dict[str, Document] = field(default_factory=dict)
-    #: sniffed from disk: path -> ("domain", name) | ("problem", domain name)
-    _kinds: dict[str, tuple[str, str, int]] = field(default_factory=dict)
+    #: sniffed kinds: path -> (kind, name, stamp) as :meth:`kind` finds them ("" when neither);
+    #: the stamp is the open document's version or the file's mtime
+    _kinds: dict[str, tuple[str, str, tuple]] = field(default_factory=dict)
     _configs: dict[str, tuple[int, ConfigInfo | None]] = field(default_factory=dict)
     _disk: tuple[float, list[str]] | None = None
 
@@ -90,9 +92,6 @@ class Project:
         doc = Document(SourceFile(path, text), version)
         self.documents[path] = doc
         return doc
-
-    def replace(self, path: str, text: str, version: int) -> Document:
-        return self.open(path, text, version)
 
     def close(self, path: str) -> None:
         self.documents.pop(path, None)
@@ -136,9 +135,9 @@ class Project:
     def kind(self, path: str) -> tuple[str, str] | None:
         """("domain", NAME) or ("problem", DOMAIN NAME) by a quick look at the text."""
         doc = self.documents.get(path)
-        stamp = doc.version if doc is not None else _mtime(path)
+        stamp = ("open", doc.version) if doc is not None else ("disk", _mtime(path))
         hit = self._kinds.get(path)
-        if hit is not None and hit[2] == stamp and doc is None:
+        if hit is not None and hit[2] == stamp:
             return hit[:2] if hit[0] else None
         text = self.text(path) or ""
         m = _DOMAIN_RE.search(text)
@@ -210,10 +209,7 @@ class Project:
                     report.sources += more.sources
             else:
                 report = check_parsed(ws, [ws.load(p) for p in self.related(path)])
-        except InputError as exc:
-            ws.files.update(exc.files)
-            report = CheckReport(ws, list(exc.diagnostics), [])
-        except TmpcError as exc:                 # a configuration that does not load
+        except TmpcError as exc:      # an unreadable file, a configuration that does not load
             ws.files.update(exc.files)
             report = CheckReport(ws, list(exc.diagnostics), [])
         return Check(path, report, config)
@@ -227,7 +223,7 @@ class Check:
     report: CheckReport
     config: ConfigInfo | None
 
-    @property
+    @cached_property
     def files(self) -> dict[str, SourceFile]:
         return {norm(k): v for k, v in self.report.workspace.files.items()}
 
@@ -246,4 +242,4 @@ def _mtime(path: str) -> int:
         return -1
 
 
-__all__ = ["Project", "Document", "Check", "ConfigInfo", "norm", "error"]
+__all__ = ["Project", "Document", "Check", "ConfigInfo", "norm"]

@@ -182,7 +182,7 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
                 text = text[:a] + change.text + text[b:]
             else:
                 text = change.text
-        ls.project.replace(path, text, params.text_document.version)
+        ls.project.open(path, text, params.text_document.version)
         ls._edited.setdefault(path, time.perf_counter())
         ls.schedule(path)
 
@@ -222,7 +222,7 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
         path, src, a = _at(ls, params)
         if src is None:
             return []
-        is_problem = ls.project.kind(path) is not None and ls.project.kind(path)[0] == "problem"
+        is_problem = (ls.project.kind(path) or ("",))[0] == "problem"
         items = complete.complete(src.text, offset(src, params.position),
                                   a.index if a else None, is_problem, path)
         return T.CompletionList(is_incomplete=False, items=items)
