@@ -5,7 +5,7 @@
 * each sub-package is entered through its door (its ``__init__``), never through a module inside;
 * an import inside a function is of a heavy third-party library (start-up time), or in the
   places that load tmpc code lazily for start-up on purpose: the CLI's command table, the planner
-  registry, and ``tmpc check --static``;
+  registry, ``tmpc check --static``, ``tmpc lsp`` and the editor worker's loop;
 * every package directory is installed (pyproject's package list).
 """
 
@@ -28,7 +28,8 @@ RANK = {"tmpc.lang": 0, "tmpc.stdlib": 0, "tmpc.compiler": 1, "tmpc.runtime": 2,
 #: modules whose functions may import tmpc modules lazily (start-up time, said in a comment)
 LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
-             "tmpc.runtime.cli.lsp"}       # the compiler (numpy) on the first hover, not at start
+             "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
+             "tmpc.runtime.editor.protocol"}   # the worker answers `ping` before the compiler loads
 #: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
 #: language server start without them
 HEAVY = {"jax", "jaxlib", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",
