@@ -13,6 +13,7 @@ from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
+
 from tmpc.compiler.cpz.sets import CPZ, dependent, interval_hull
 from tmpc.compiler.jaxcfg import configured
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from lsprotocol import types as T
+
 from tmpc.lang import symbols as K
 from tmpc.lang.lsp.hover import signature, typed
 from tmpc.lang.lsp.index import Index

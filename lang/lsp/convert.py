@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from lsprotocol import types as T
 from pygls.uris import from_fs_path
+
 from tmpc.lang.diagnostics import Diagnostic, Severity
 from tmpc.lang.source import SourceFile, Span
 

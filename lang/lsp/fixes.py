@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 
 from lsprotocol import types as T
+
 from tmpc.lang.lsp.convert import position, uri
 from tmpc.lang.reader_common import head
 from tmpc.lang.sexpr import SList, parse_sexpr

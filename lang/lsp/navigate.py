@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 from lsprotocol import types as T
+
 from tmpc.lang import ast as A
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.lsp.convert import span_range, to_range, uri

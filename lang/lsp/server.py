@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from lsprotocol import types as T
 from pygls.lsp.server import LanguageServer
 from pygls.uris import to_fs_path
+
 from tmpc.lang import ast as A
 from tmpc.lang.lsp import complete, fixes, hover, navigate
 from tmpc.lang.lsp.convert import diagnostic, offset, span_range, uri

@@ -18,6 +18,7 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.repair.domain import parse_truth
 from tmpc.runtime.repair.model import (

@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
 from tmpc.compiler.cpz import CPZ
 
 #: the distance a violated discrete literal contributes (and an inside point's cap), in the

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+
 from tmpc.lang.fileio import atomic_write_bytes, atomic_write_text
 from tmpc.runtime.repair.loop import comparable
 

@@ -25,6 +25,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import minimize
+
 from tmpc.compiler.jaxcfg import configured
 from tmpc.runtime.repair.model import KAPPA, Features, Formula, Instance, Literal, error, predicts
 

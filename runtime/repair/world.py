@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
 from tmpc.compiler.cpz import sample
 from tmpc.compiler.robot import homogeneous
 from tmpc.compiler.rotations import matrix_to_quat

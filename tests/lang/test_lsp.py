@@ -16,6 +16,7 @@ import pytest
 import pytest_lsp
 from lsprotocol import types as T
 from pytest_lsp import ClientServerConfig, LanguageClient
+
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.sexpr import parse_sexpr
 from tmpc.lang.source import SourceFile

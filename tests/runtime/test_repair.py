@@ -16,6 +16,8 @@ import time
 
 import numpy as np
 import pytest
+
+from tests.support import EXAMPLES, run_tmpc
 from tmpc.runtime.repair import (
     LoopConfig,
     RepairWorld,
@@ -29,8 +31,6 @@ from tmpc.runtime.repair import (
 )
 from tmpc.runtime.repair.model import TEMPLATES, Features, Formula, Instance, Literal, error
 from tmpc.runtime.repair.search import Problem, optimise, search
-
-from tests.support import EXAMPLES, run_tmpc
 
 EXP1 = EXAMPLES / "repair" / "exp1.toml"
 
