@@ -83,6 +83,11 @@ def _parser() -> Lark:
                                   lexer_callbacks={"COMMENT": _collect_comment})
 
 
+def _unterminated(span: Span) -> Diagnostic:
+    return error("E003", "unterminated string: this `\"` has no closing `\"` on its line", span,
+                 "close the string, or remove the quote")
+
+
 class _Builder:
     """Turns Lark tokens into SAtom/SList without an intermediate tree."""
 
@@ -91,9 +96,7 @@ class _Builder:
         self.bad: list[Diagnostic] = []
 
     def bad_token(self, tok: Token) -> None:
-        self.bad.append(error("E003", "unterminated string: this `\"` has no closing `\"` on its "
-                              "line", Span(self.path, tok.start_pos, tok.end_pos),
-                              "close the string, or remove the quote"))
+        self.bad.append(_unterminated(Span(self.path, tok.start_pos, tok.end_pos)))
 
     def atom(self, tok: Token) -> SAtom:
         return SAtom(str(tok), _KIND[tok.type], Span(self.path, tok.start_pos, tok.end_pos))
@@ -185,6 +188,56 @@ def depth_error(source: SourceFile) -> Diagnostic | None:
 
 def parse_sexpr(source: SourceFile) -> SexprDoc:
     """Parse a whole file. Never raises for bad input: problems become diagnostics."""
+    fast = _scan(source)
+    if fast is not None:
+        return fast
+    return parse_sexpr_lark(source)
+
+
+#: the grammar's tokens (sexpr.lark) as one alternation, in the lexer's priority order: blank,
+#: comment, brackets, string (priority 2 over the bare quote), bare quote, symbol
+_TOKEN = re.compile(r'(\s+)|(;[^\n]*)|(\()|(\))|("(?:\\.|[^"\\\n])*")|(")|([^\s()";]+)')
+
+
+def _scan(source: SourceFile) -> SexprDoc | None:
+    """The fast path of well-formed text: the grammar's tokens by one regular expression and the
+    lists by a stack (about 4x faster than the LALR parse; the language server re-parses on
+    every edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
+    Its result equals :func:`parse_sexpr_lark`'s (tested on the corpus and by hypothesis)."""
+    text, path = source.text, source.path
+    stack: list[list] = [[]]
+    opens: list[int] = []
+    comments, bad = [], []
+    for m in _TOKEN.finditer(text):
+        group = m.lastindex
+        if group == 1:
+            continue
+        start, end = m.span()
+        if group == 3:
+            stack.append([])
+            opens.append(start)
+        elif group == 4:
+            if not opens:
+                return None
+            items = stack.pop()
+            stack[-1].append(SList(tuple(items), Span(path, opens.pop(), end),
+                                   Span(path, start, end)))
+        elif group == 7:
+            stack[-1].append(SAtom(m.group(), "symbol", Span(path, start, end)))
+        elif group == 2:
+            comments.append(Comment(m.group(), Span(path, start, end)))
+        elif group == 5:
+            stack[-1].append(SAtom(m.group(), "string", Span(path, start, end)))
+        else:
+            bad.append(_unterminated(Span(path, start, end)))
+    if opens:
+        return None
+    return SexprDoc(source, stack[0], comments, bad)
+
+
+def parse_sexpr_lark(source: SourceFile) -> SexprDoc:
+    """:func:`parse_sexpr` by the LALR grammar (``sexpr.lark``), with bracket repair: the
+    reference the fast path is tested against, and the path of unbalanced text."""
     text, path = source.text, source.path
     builder = _Builder(path)
     _comment_sink.clear()

@@ -75,3 +75,31 @@ def test_arbitrary_text(text):
 def test_seed_corpus_is_loaded():
     assert len(SEEDS) >= 3 and all(isinstance(s, str) for s in SEEDS)
     assert Path(EXAMPLES).is_dir()
+
+
+def _same_parse(text: str) -> None:
+    from tmpc.lang.sexpr import parse_sexpr, parse_sexpr_lark
+    src = SourceFile("t.pddl", text)
+    fast, ref = parse_sexpr(src), parse_sexpr_lark(src)
+    assert (fast.items, fast.comments) == (ref.items, ref.comments)
+    # the same diagnostics (the fast path gives them in text order, the grammar's builder in
+    # the order it closes lists)
+    assert sorted((d.span.start, d.code, d.message) for d in fast.diagnostics) == \
+        sorted((d.span.start, d.code, d.message) for d in ref.diagnostics)
+
+
+def test_the_fast_sexpr_path_equals_the_lark_grammar_on_the_corpus():
+    for text in SEEDS:
+        _same_parse(text)
+
+
+@SETTINGS
+@given(mutated())
+def test_the_fast_sexpr_path_equals_the_lark_grammar_on_mutations(text):
+    _same_parse(text)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(st.text(alphabet=st.sampled_from('() "\\;\n\t\u00a0\u2028ab?-:é🤖'), max_size=80))
+def test_the_fast_sexpr_path_equals_the_lark_grammar_on_token_soup(text):
+    _same_parse(text)
