@@ -228,7 +228,9 @@ class Check:
         return {norm(k): v for k, v in self.report.workspace.files.items()}
 
     def by_file(self) -> dict[str, list[Diagnostic]]:
-        out: dict[str, list[Diagnostic]] = {self.path: []}
+        """Diagnostics by file, for ``path`` and every file the check read (an empty list
+        clears a file's old diagnostics: a domain edit can fix its problem's errors)."""
+        out: dict[str, list[Diagnostic]] = {self.path: [], **{p: [] for p in self.files}}
         for d in self.report.diagnostics:
             where = norm(d.span.path) if d.span is not None else self.path
             out.setdefault(where, []).append(d)

@@ -15,7 +15,7 @@ import logging
 import os
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from lsprotocol import types as T
 from pygls.lsp.server import LanguageServer
@@ -119,10 +119,15 @@ class TmpcServer(LanguageServer):
         progs = a.check.report.programs
         if progs:
             return progs[0].scope
-        for src in a.check.report.sources:       # the problem has errors: the domain alone
-            checked, _ = Program(src.domain, None, src.modules).check()
-            if checked is not None:
-                return checked.scope
+        # the problem has errors: the domain alone; the actions have errors: the declarations
+        # alone (a predicate's meaning never depends on an action)
+        for src in a.check.report.sources:
+            if src.domain is None:
+                continue
+            for domain in (src.domain, replace(src.domain, actions=(), derived=())):
+                checked, _ = Program(domain, None, src.modules).check()
+                if checked is not None:
+                    return checked.scope
         return None
 
     async def work(self, method: str, params: dict) -> dict:
@@ -313,10 +318,11 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
             decl = a.index.predicates.get(occ.key)
             if decl is not None and decl.kind is A.Kind.GEOMETRIC:
                 args = _atom_args(a, occ)
-                out.append(T.CodeAction(
-                    title=f"Sample a witness of `{decl.name.text}`", kind=T.CodeActionKind.Empty,
-                    command=T.Command(title="Sample a witness", command="tmpc.witness",
-                                      arguments=[uri(path), decl.name.text, args])))
+                # a bare Command (LSP allows it here): clients tell it from a CodeAction by
+                # shape, a CodeAction holding only a command is ambiguous to some
+                out.append(T.Command(title=f"Sample a witness of `{decl.name.text}`",
+                                     command="tmpc.witness",
+                                     arguments=[uri(path), decl.name.text, args]))
         return out
 
     @ls.feature(T.TEXT_DOCUMENT_CODE_LENS)
@@ -340,25 +346,27 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
         return lens
 
     @ls.command("tmpc.evaluate")
-    async def cmd_evaluate(ls: TmpcServer, args):
-        data = args[0] if args else {}
+    # pygls 2 passes a command's arguments as positional parameters
+    async def cmd_evaluate(ls: TmpcServer, data: dict | None = None):
+        data = data or {}
         cmd = await _evaluate_lens(ls, data)
         ls.window_show_message(T.ShowMessageParams(type=T.MessageType.Info, message=cmd.title))
         return cmd.title
 
     @ls.command("tmpc.witness")
-    async def cmd_witness(ls: TmpcServer, args):
+    async def cmd_witness(ls: TmpcServer, *args):
         return await _witness(ls, *args)
 
     @ls.command("tmpc.checkStatic")
-    async def cmd_static(ls: TmpcServer, args):
-        return await _static(ls, _path(args[0]))
+    async def cmd_static(ls: TmpcServer, doc_uri: str):
+        return await _static(ls, _path(doc_uri))
 
     @ls.feature("tmpc/stats")
     def stats(ls: TmpcServer, params):
         docs = [[uri(p), hashlib.sha256(d.source.text.encode()).hexdigest()]
                 for p, d in ls.project.documents.items()]
-        return {"latencies": list(ls.latencies), "documents": docs}
+        return {"latencies": list(ls.latencies), "documents": docs,
+                "worker": ls.worker.pid if ls.worker is not None else None}
 
 
 # ---- handler helpers -------------------------------------------------------------------------

