@@ -65,6 +65,8 @@ class TmpcServer(LanguageServer):
         #: seconds from didChange to publish, per published check (for `tmpc/stats`)
         self.latencies: list[float] = []
         self.worker = Worker(hooks.worker_command) if hooks.worker_command else None
+        #: pending "open in tmpc view?" questions (kept so they are not garbage collected)
+        self._offers: set[asyncio.Future] = set()
 
     # ---- checking --------------------------------------------------------------------------
     def schedule(self, path: str) -> None:
@@ -357,6 +359,10 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
     async def cmd_witness(ls: TmpcServer, *args):
         return await _witness(ls, *args)
 
+    @ls.command("tmpc.view")
+    async def cmd_view(ls: TmpcServer, doc_uri: str, state_path: str):
+        return await _view(ls, _path(doc_uri), state_path)
+
     @ls.command("tmpc.checkStatic")
     async def cmd_static(ls: TmpcServer, doc_uri: str):
         return await _static(ls, _path(doc_uri))
@@ -493,11 +499,54 @@ async def _witness(ls: TmpcServer, doc_uri: str, predicate: str, args=None, seed
         return {**r, "message": msg}
     r["state_path"] = _write_state(r["state"], predicate)
     joints = ", ".join(f"{k} {v:.3f}" for k, v in list(r.get("joints", {}).items())[:12])
-    ls.window_show_message(T.ShowMessageParams(
-        type=T.MessageType.Info,
-        message=f"witness of ({predicate} {' '.join(r.get('args') or args or [])}): distance "
-                f"{r['distance']:.2g}; joints {joints}; state in {r['state_path']} "
-                f"(tmpc eval {config.path} --state {r['state_path']})"))
+    message = (f"witness of ({predicate} {' '.join(r.get('args') or args or [])}): distance "
+               f"{r['distance']:.2g}; joints {joints}; state in {r['state_path']} "
+               f"(tmpc eval {config.path} --state {r['state_path']})")
+    # offered, not awaited: the command answers now, the page is drawn if the user asks
+    offer = asyncio.ensure_future(_offer_view(ls, message, path, r["state_path"]))
+    ls._offers.add(offer)
+    offer.add_done_callback(ls._offers.discard)
+    return r
+
+
+VIEW = "Open in tmpc view"
+
+
+async def _offer_view(ls: TmpcServer, message: str, path: str, state_path: str) -> None:
+    try:
+        choice = await ls.window_show_message_request_async(T.ShowMessageRequestParams(
+            type=T.MessageType.Info, message=message,
+            actions=[T.MessageActionItem(title=VIEW)]))
+    except Exception:          # a client without message requests: the plain message
+        ls.window_show_message(T.ShowMessageParams(type=T.MessageType.Info, message=message))
+        return
+    if choice is not None and choice.title == VIEW:
+        await _view(ls, path, state_path)
+
+
+async def _view(ls: TmpcServer, path: str, state_path: str) -> dict:
+    """Draw a state (a witness's state file) as ``tmpc view`` draws a plan, and ask the client
+    to open the page (``window/showDocument``, in the browser)."""
+    config = ls.project.config_for(path)
+    if config is None:
+        return {"message": "no run configuration in the workspace names this file"}
+    try:
+        with open(state_path, encoding="utf-8") as f:
+            state = json.load(f)
+        out = os.path.splitext(state_path)[0] + ".html"
+        r = await ls.work("view", {"config": config.path, "state": state, "out": out})
+    except (OSError, ValueError, WorkerError) as exc:
+        ls.window_show_message(T.ShowMessageParams(type=T.MessageType.Error,
+                                                   message=f"tmpc view: {exc}"))
+        return {"message": str(exc)}
+    try:
+        shown = await ls.window_show_document_async(T.ShowDocumentParams(
+            uri=uri(r["path"]), external=True))
+        r["shown"] = bool(shown and shown.success)
+    except Exception:           # a client without showDocument: say where the page is
+        r["shown"] = False
+        ls.window_show_message(T.ShowMessageParams(type=T.MessageType.Info,
+                                                   message=f"tmpc view: {r['path']}"))
     return r
 
 

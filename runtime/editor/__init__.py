@@ -18,7 +18,8 @@ from tmpc.runtime.editor.wire import diagnostic_to_json as diagnostic_to_json
 
 #: heavy names of this package, imported on first access
 _LAZY = {name: "tmpc.runtime.editor.work" for name in
-         ("witness", "evaluate", "static_checks", "WorldCache", "WORLDS", "MAX_GROUNDINGS")}
+         ("witness", "evaluate", "static_checks", "view", "WorldCache", "WORLDS",
+          "MAX_GROUNDINGS")}
 
 
 def __getattr__(name: str):

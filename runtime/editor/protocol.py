@@ -3,8 +3,8 @@
 A request is one line ``{"id": int, "method": str, "params": {...}}``; the answer is one line
 ``{"id": ..., "result": ...}`` or ``{"id": ..., "error": {"message": str, "diagnostics":
 [...]}}`` (diagnostics in :mod:`tmpc.runtime.editor.wire`'s form). Methods (:data:`METHODS`):
-``ping`` -> ``{"pid"}``, and ``witness``, ``evaluate``, ``static`` whose params are the keyword
-arguments of :mod:`tmpc.runtime.editor.work`'s functions.
+``ping`` -> ``{"pid"}``, and ``witness``, ``evaluate``, ``static``, ``view`` whose params are
+the keyword arguments of :mod:`tmpc.runtime.editor.work`'s functions.
 
 Nothing a request does stops the loop: a :class:`~tmpc.lang.diagnostics.TmpcError` is answered
 with its diagnostics, any other exception with its type and message (its traceback goes to
@@ -29,7 +29,8 @@ from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.editor.wire import diagnostic_to_json
 
 #: method -> the function of :mod:`tmpc.runtime.editor.work` it calls (``ping`` is the loop's)
-METHODS = {"ping": None, "witness": "witness", "evaluate": "evaluate", "static": "static_checks"}
+METHODS = {"ping": None, "witness": "witness", "evaluate": "evaluate", "static": "static_checks",
+           "view": "view"}
 
 
 class BadRequest(Exception):

@@ -41,6 +41,7 @@ from tmpc.runtime.probe import (
     sampled_state,
     sampling_program,
 )
+from tmpc.runtime.viewer import write_html
 
 #: groundings :func:`evaluate` evaluates at most for one action or predicate
 MAX_GROUNDINGS = 2000
@@ -204,6 +205,18 @@ def static_checks(config, budget: float = 2.0, geometry_budget: float = 20.0) ->
         found = [*found, *geometric_checks(world, geometry_budget)]
         loaded.static[key] = [diagnostic_to_json(d) for d in found]
     return loaded.static[key]
+
+
+def view(config, *, state: dict, out: str) -> dict:
+    """The page ``tmpc view`` draws (:func:`~tmpc.runtime.viewer.write_html`, written
+    atomically) of one state (a witness's state JSON) in the configuration's scene. Returns
+    ``{"path", "bytes"}``."""
+    loaded = WORLDS.get(config)
+    if not isinstance(state, dict):
+        raise ValueError("`state` must be a state object (what `tmpc sample` prints)")
+    plan = {"format": "tmpc-plan/1", "status": "solved", "actions": [],
+            "states": [{**state, "action": None}]}
+    return {"path": str(out), "bytes": write_html(loaded.world, plan, out)}
 
 
 # ---- helpers -------------------------------------------------------------------------------

@@ -227,3 +227,18 @@ def test_the_worker_process_answers_survives_and_exits_on_eof():
     assert found == work.witness(TABLETOP, predicate="reach", args=REACH[1:], seed=0)
     assert "error" in replies[2]
     assert [d["code"] for d in replies[4]["error"]["diagnostics"]] == ["E582"]
+
+
+def test_view_draws_the_witness_state_as_tmpc_view_draws_a_plan(tmp_path, capsys):
+    got = work.witness(TABLETOP, predicate="reach", args=REACH[1:], seed=0)
+    page = work.view(TABLETOP, state=got["state"], out=str(tmp_path / "w.html"))
+    html = (tmp_path / "w.html").read_text()
+    assert page == {"path": str(tmp_path / "w.html"), "bytes": len(html.encode())}
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"format": "tmpc-plan/1", "status": "solved", "actions": [],
+                                "states": [{**got["state"], "action": None}]}))
+    code, _ = cli(capsys, "view", TABLETOP, plan, "--html", tmp_path / "cli.html")
+    assert code == 0 and (tmp_path / "cli.html").read_text() == html
+    reply = call("view", config=str(TABLETOP), state=[1, 2], out=str(tmp_path / "x.html"))
+    assert "must be a state object" in reply["error"]["message"]
+    assert not (tmp_path / "x.html").exists()

@@ -7,6 +7,7 @@ The tabletop example is copied into a temporary workspace (the static checks tes
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 import shutil
@@ -34,6 +35,13 @@ def workspace(tmp_path_factory) -> Path:
 @pytest_lsp.fixture(scope="module", config=ClientServerConfig(
     server_command=[sys.executable, "-m", "tmpc.runtime.cli", "lsp"]))
 async def client(lsp_client: LanguageClient, workspace):
+    # window/showMessageRequest as an editor answers it: the user's choice (None: dismissed)
+    lsp_client.asked, lsp_client.choose = [], None
+
+    def ask(params: T.ShowMessageRequestParams):
+        lsp_client.asked.append(params)
+        return lsp_client.choose(params) if lsp_client.choose else None
+    lsp_client.feature(T.WINDOW_SHOW_MESSAGE_REQUEST)(ask)
     await lsp_client.initialize_session(T.InitializeParams(
         capabilities=T.ClientCapabilities(), root_uri=workspace.as_uri(),
         workspace_folders=[T.WorkspaceFolder(uri=workspace.as_uri(), name="ws")]))
@@ -86,8 +94,36 @@ async def test_the_witness_command_returns_a_state_tmpc_eval_confirms(client, wo
     # the action's own arguments when none are given (the first grounding that fits)
     first = await _command(client, "tmpc.witness", uri, "reach", None, 0)
     assert first["args"] == ["panda_hand_tcp", "red_cube"] and first["found"]
-    assert any("witness of (reach panda_hand_tcp red_cube)" in m.message
-               for m in client.messages)
+    for _ in range(100):
+        if client.asked:
+            break
+        await asyncio.sleep(0.05)
+    assert any("witness of (reach panda_hand_tcp red_cube)" in m.message for m in client.asked)
+
+
+async def test_the_witness_offers_tmpc_view_and_the_page_opens(client, workspace):
+    uri = await _open(client, workspace / "tabletop" / "domain.pddl")
+    client.asked.clear()
+    client.choose = lambda params: params.actions[0]
+    shown = len(client.shown_documents)
+    got = await _command(client, "tmpc.witness", uri, "reach", ["panda_hand_tcp", "blue_cube"],
+                         2)
+    assert got["found"]
+    for _ in range(600):                     # the page is drawn after the command answered
+        if len(client.shown_documents) > shown:
+            break
+        await asyncio.sleep(0.05)
+    client.choose = None
+    asked = client.asked
+    assert [a.title for a in asked[0].actions] == ["Open in tmpc view"]
+    assert "witness of (reach panda_hand_tcp blue_cube)" in asked[0].message
+    page = client.shown_documents[-1]
+    assert page.external and page.uri.endswith("witness-reach.html")
+    html = Path(got["state_path"]).with_suffix(".html").read_text()
+    assert html.startswith("<!doctype html>") and "(1 states, 0 actions)" in html
+    # the command alone, on the state file
+    direct = await _command(client, "tmpc.view", uri, got["state_path"])
+    assert direct["shown"] and direct["bytes"] == len(html.encode())
 
 
 async def test_code_lenses_evaluate_actions_and_the_goal_at_the_start(client, workspace,
