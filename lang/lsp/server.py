@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
+import inspect
 import json
 import logging
 import os
@@ -18,7 +19,9 @@ import time
 from dataclasses import dataclass, replace
 
 from lsprotocol import types as T
+from pygls.exceptions import JsonRpcInvalidParams
 from pygls.lsp.server import LanguageServer
+from pygls.protocol import LanguageServerProtocol, lsp_method
 from pygls.uris import to_fs_path
 
 from tmpc.lang import ast as A
@@ -53,9 +56,24 @@ class Analysis:
     index: Index
 
 
+class TmpcProtocol(LanguageServerProtocol):
+    """pygls's protocol, with ``workspace/executeCommand`` run as a coroutine: pygls 2 runs a
+    command's handler as a separate task behind a generator, which ``$/cancelRequest`` never
+    reaches; here the request's task awaits the handler, so cancelling the request cancels the
+    command (and its worker call, which stops the worker)."""
+
+    @lsp_method(T.WORKSPACE_EXECUTE_COMMAND)
+    async def lsp_workspace__execute_command(self, params: T.ExecuteCommandParams):
+        handler = self.fm.commands.get(params.command)
+        if handler is None:
+            raise JsonRpcInvalidParams.of(ValueError(f"no command {params.command!r}"))
+        result = handler(*(params.arguments or []))
+        return await result if inspect.isawaitable(result) else result
+
+
 class TmpcServer(LanguageServer):
     def __init__(self, hooks: Hooks, version: str):
-        super().__init__("tmpc", version)
+        super().__init__("tmpc", version, protocol_cls=TmpcProtocol)
         self.hooks = hooks
         self.project = Project()
         self.analyses: dict[str, Analysis] = {}
@@ -348,7 +366,7 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
         return lens
 
     @ls.command("tmpc.evaluate")
-    # pygls 2 passes a command's arguments as positional parameters
+    # a command's arguments are its positional parameters (TmpcProtocol)
     async def cmd_evaluate(ls: TmpcServer, data: dict | None = None):
         data = data or {}
         cmd = await _evaluate_lens(ls, data)

@@ -174,3 +174,29 @@ async def test_a_dead_worker_is_reported_and_the_server_lives_on(client, workspa
     hover = await client.text_document_hover_async(T.HoverParams(
         text_document=T.TextDocumentIdentifier(uri=uri), position=T.Position(line=0, character=2)))
     assert hover is None or hover.contents
+
+
+async def test_a_cancelled_request_stops_the_worker_and_the_next_one_runs(client, workspace):
+    domain = workspace / "tabletop" / "domain.pddl"
+    domain.write_text(domain.read_text() + "\n; edited: the static checks run again\n")
+    uri = await _open(client, domain)
+    before = (await client.protocol.send_request_async("tmpc/stats", {})).worker
+    rid = "static-to-cancel"
+    pending = client.protocol.send_request(
+        T.WORKSPACE_EXECUTE_COMMAND, T.ExecuteCommandParams(command="tmpc.checkStatic",
+                                                            arguments=[uri]), msg_id=rid)
+    await asyncio.sleep(0.5)                  # the worker is loading and checking (~2 s)
+    client.protocol.notify(T.CANCEL_REQUEST, T.CancelParams(id=rid))
+    with pytest.raises(Exception, match="(?i)cancel"):
+        await asyncio.wrap_future(pending)
+    for _ in range(100):                      # the server killed the worker
+        if (await client.protocol.send_request_async("tmpc/stats", {})).worker is None:
+            break
+        await asyncio.sleep(0.05)
+    assert (await client.protocol.send_request_async("tmpc/stats", {})).worker is None
+    title = await _command(client, "tmpc.evaluate", {"goal": True,
+                                                      "path": str(workspace / "tabletop" /
+                                                                  "problem.pddl")})
+    assert title.startswith("at the start state: false")
+    after = (await client.protocol.send_request_async("tmpc/stats", {})).worker
+    assert after and after != before
