@@ -12,6 +12,17 @@ import pytest
 from tests.support import CLUTTER, TABLETOP
 
 
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject's addopts) is one worker per core, except for benchmarks and
+    ``-s`` runs: they run in this process, so their tables print and their ratios are not
+    measured under a parallel suite's load."""
+    marks = config.getoption("markexpr") or ""
+    benchmarks = "bench" in marks and "not bench" not in marks
+    if benchmarks or config.getoption("capture") == "no":
+        return 0
+    return None                     # xdist's own choice: the number of cores
+
+
 @pytest.fixture
 def tmp_cwd(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from lsprotocol import types as T
 from pytest_lsp import ClientServerConfig, LanguageClient
 
+from tests.lspclient import open_document, published
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.sexpr import parse_sexpr
 from tmpc.lang.source import SourceFile
@@ -46,14 +47,6 @@ async def client(lsp_client: LanguageClient, workspace):
     await lsp_client.shutdown_session()
 
 
-async def _open(client: LanguageClient, path: Path, text: str | None = None) -> str:
-    uri = path.as_uri()
-    client.text_document_did_open(T.DidOpenTextDocumentParams(text_document=T.TextDocumentItem(
-        uri=uri, language_id="pddl", version=1, text=text if text is not None
-        else path.read_text())))
-    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
-    return uri
-
 
 def _pos(text: str, needle: str, skip: int = 0, into: int = 1) -> T.Position:
     """The position ``into`` characters into the ``skip``-th occurrence of ``needle``."""
@@ -79,12 +72,12 @@ def _codes(client, uri) -> list[str]:
 async def test_diagnostics_after_open_and_after_an_incremental_edit(client, workspace):
     path = workspace / "clutter" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
     assert not [d for d in client.diagnostics[uri] if d.severity == T.DiagnosticSeverity.Error]
     # two mistakes at once (a misspelled predicate, a bad number of arguments): both reported
     at = _pos(text, "(arm-empty ?m) (at ?m ?x))", into=1)
     _change(client, uri, 2, at, T.Position(line=at.line, character=at.character + 9), "arm-emty")
-    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    await published(client, uri)
     codes = _codes(client, uri)
     assert "E200" in codes
     bad = next(d for d in client.diagnostics[uri] if d.code == "E200")
@@ -92,7 +85,7 @@ async def test_diagnostics_after_open_and_after_an_incremental_edit(client, work
         str(bad.data.get("hint")) for _ in [0])
     # undo: clean again
     _change(client, uri, 3, at, T.Position(line=at.line, character=at.character + 8), "arm-empty")
-    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
+    await published(client, uri)
     assert "E200" not in _codes(client, uri)
 
 
@@ -101,7 +94,7 @@ async def test_a_problem_is_checked_against_its_domain_elsewhere_in_the_workspac
     path = workspace / "clutter" / "problem.pddl"
     text = path.read_text().replace("(arm-empty l_gripper_tool_frame)\n    (arm",
                                     "(arm-empty l_gripper_tool_frame blue_stick_1)\n    (arm", 1)
-    uri = await _open(client, path, text)
+    uri = await open_document(client, path, text)
     assert "E202" in _codes(client, uri)      # arity: known only from the domain file
 
 
@@ -111,7 +104,7 @@ async def test_non_ascii_comments_keep_positions_in_utf16(client, workspace):
             "  (:predicates (p)) ; 🤖🤖 x\n  (:action a :parameters () :precondition (q) "
             ":effect (p)))\n")
     path.write_text(text)
-    uri = await _open(client, path, text)
+    uri = await open_document(client, path, text)
     bad = next(d for d in client.diagnostics[uri] if d.code == "E200")
     # line 3 (0-based), the `q` after "(:action a :parameters () :precondition ("
     assert bad.range.start == T.Position(line=3, character=text.splitlines()[3].index("(q)") + 1)
@@ -126,7 +119,7 @@ async def test_hover_on_a_native_geometric_predicate_shows_its_compiled_distance
                                                                               workspace):
     path = workspace / "clutter" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
     hover = await client.text_document_hover_async(T.HoverParams(
         text_document=T.TextDocumentIdentifier(uri=uri), position=_pos(text, "(at ?m ?x))")))
     value = hover.contents.value
@@ -142,7 +135,7 @@ async def test_hover_on_a_native_geometric_predicate_shows_its_compiled_distance
 async def test_hover_on_a_tmit_star_lua_predicate_shows_the_traced_distance(client, workspace):
     path = workspace / "tmit-star-sort" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
     hover = await client.text_document_hover_async(T.HoverParams(
         text_document=T.TextDocumentIdentifier(uri=uri), position=_pos(text, "(at ?m ?x))")))
     value = hover.contents.value
@@ -153,7 +146,7 @@ async def test_hover_on_a_tmit_star_lua_predicate_shows_the_traced_distance(clie
 async def test_completion_in_three_contexts(client, workspace):
     path = workspace / "clutter" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
 
     async def labels(position) -> set[str]:
         got = await client.text_document_completion_async(T.CompletionParams(
@@ -177,8 +170,8 @@ async def test_completion_in_three_contexts(client, workspace):
 async def test_definition_references_and_rename_across_domain_and_problem(client, workspace):
     dom, prob = workspace / "clutter" / "domain.pddl", workspace / "clutter" / "problem.pddl"
     dtext, ptext = dom.read_text(), prob.read_text()
-    duri = await _open(client, dom)
-    puri = await _open(client, prob, ptext)
+    duri = await open_document(client, dom)
+    puri = await open_document(client, prob, ptext)
     ident = T.TextDocumentIdentifier(uri=puri)
     got = await client.text_document_definition_async(T.DefinitionParams(
         text_document=ident, position=_pos(ptext, "(on-surface blue_stick_1 table1)")))
@@ -206,7 +199,7 @@ async def test_definition_references_and_rename_across_domain_and_problem(client
 async def test_definition_of_a_lua_predicate_goes_into_the_lua_file(client, workspace):
     path = workspace / "tmit-star-sort" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
     got = await client.text_document_definition_async(T.DefinitionParams(
         text_document=T.TextDocumentIdentifier(uri=uri), position=_pos(text, "(above ?m ?s))")))
     lua = [g for g in got if g.uri.endswith("predicates.lua")]
@@ -219,7 +212,7 @@ async def test_definition_of_a_lua_predicate_goes_into_the_lua_file(client, work
 async def test_formatting_equals_tmpc_fmt_and_symbols_and_folding(client, workspace):
     path = workspace / "clutter" / "domain.pddl"
     messy = path.read_text().replace("\n  (:action", "\n(:action").replace("  ", " ")
-    uri = await _open(client, path, messy)
+    uri = await open_document(client, path, messy)
     edits = await client.text_document_formatting_async(T.DocumentFormattingParams(
         text_document=T.TextDocumentIdentifier(uri=uri),
         options=T.FormattingOptions(tab_size=2, insert_spaces=True)))
@@ -243,7 +236,7 @@ async def test_quick_fixes_did_you_mean_requirement_and_declare(client, workspac
             "  (:action go :parameters (?t - thing) :precondition (and (redy ?t) (not (ready ?t)))"
             "\n    :effect (and (ready ?t) (gone ?t))))\n")
     path.write_text(text)
-    uri = await _open(client, path, text)
+    uri = await open_document(client, path, text)
     diags = client.diagnostics[uri]
     assert {"E200", "W001"} <= {d.code for d in diags}
     actions = await client.text_document_code_action_async(T.CodeActionParams(
@@ -262,7 +255,7 @@ async def test_quick_fixes_did_you_mean_requirement_and_declare(client, workspac
 async def test_semantic_tokens_colour_predicates_by_kind(client, workspace):
     path = workspace / "clutter" / "domain.pddl"
     text = path.read_text()
-    uri = await _open(client, path)
+    uri = await open_document(client, path)
     got = await client.text_document_semantic_tokens_full_async(T.SemanticTokensParams(
         text_document=T.TextDocumentIdentifier(uri=uri)))
     from tmpc.lang.lsp.navigate import TOKEN_MODIFIERS, TOKEN_TYPES
@@ -294,7 +287,7 @@ async def test_random_edits_never_crash_the_server(client, workspace, edits):
     text = path.read_text()
     global _VERSION
     if _VERSION == 1000:
-        await _open(client, path)
+        await open_document(client, path)
     uri = path.as_uri()
     _VERSION += 1
     client.text_document_did_change(T.DidChangeTextDocumentParams(

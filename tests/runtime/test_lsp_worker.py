@@ -20,6 +20,7 @@ import pytest_lsp
 from lsprotocol import types as T
 from pytest_lsp import ClientServerConfig, LanguageClient
 
+from tests.lspclient import open_document
 from tests.support import EXAMPLES
 
 pytestmark = pytest.mark.asyncio(loop_scope="module")
@@ -49,13 +50,6 @@ async def client(lsp_client: LanguageClient, workspace):
     await lsp_client.shutdown_session()
 
 
-async def _open(client: LanguageClient, path: Path) -> str:
-    uri = path.as_uri()
-    client.text_document_did_open(T.DidOpenTextDocumentParams(text_document=T.TextDocumentItem(
-        uri=uri, language_id="pddl", version=1, text=path.read_text())))
-    await client.wait_for_notification(T.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS)
-    return uri
-
 
 def _cli(capsys, *argv) -> tuple[int, str]:
     from tmpc.runtime.cli.main import main
@@ -71,7 +65,7 @@ async def _command(client: LanguageClient, name: str, *arguments):
 
 async def test_the_witness_command_returns_a_state_tmpc_eval_confirms(client, workspace, capsys):
     config = workspace / "tabletop" / "tabletop.toml"
-    uri = await _open(client, workspace / "tabletop" / "domain.pddl")
+    uri = await open_document(client, workspace / "tabletop" / "domain.pddl")
     text = (workspace / "tabletop" / "domain.pddl").read_text()
     at = text.index("(reach ?g ?c))") + 1
     line = text.count("\n", 0, at)
@@ -102,7 +96,7 @@ async def test_the_witness_command_returns_a_state_tmpc_eval_confirms(client, wo
 
 
 async def test_the_witness_offers_tmpc_view_and_the_page_opens(client, workspace):
-    uri = await _open(client, workspace / "tabletop" / "domain.pddl")
+    uri = await open_document(client, workspace / "tabletop" / "domain.pddl")
     client.asked.clear()
     client.choose = lambda params: params.actions[0]
     shown = len(client.shown_documents)
@@ -132,7 +126,7 @@ async def test_code_lenses_evaluate_actions_and_the_goal_at_the_start(client, wo
     domain, problem = folder / "domain.pddl", folder / "problem.pddl"
     lenses = []
     for path in (domain, problem):
-        uri = await _open(client, path)
+        uri = await open_document(client, path)
         lenses += await client.text_document_code_lens_async(
             T.CodeLensParams(text_document=T.TextDocumentIdentifier(uri=uri)))
     assert [(lens.data.get("action"), lens.data.get("goal")) for lens in lenses] == \
@@ -150,7 +144,7 @@ async def test_the_static_checks_arrive_as_diagnostics(client, workspace):
     domain = workspace / "tabletop" / "domain.pddl"
     domain.write_text(domain.read_text().replace(
         "(near ?g ?c 0.02)", "(near ?g ?c 0.02) (> (z (position ?c)) 5.0)"))
-    uri = await _open(client, domain)
+    uri = await open_document(client, domain)
     got = await _command(client, "tmpc.checkStatic", uri)
     assert got["diagnostics"] >= 1, got
     # published before the command's answer, on the same stream
@@ -161,7 +155,7 @@ async def test_the_static_checks_arrive_as_diagnostics(client, workspace):
 
 async def test_a_dead_worker_is_reported_and_the_server_lives_on(client, workspace):
     problem = workspace / "tabletop" / "problem.pddl"
-    uri = await _open(client, problem)
+    uri = await open_document(client, problem)
     stats = await client.protocol.send_request_async("tmpc/stats", {})
     assert stats.worker
     os.kill(stats.worker, signal.SIGKILL)
@@ -179,7 +173,7 @@ async def test_a_dead_worker_is_reported_and_the_server_lives_on(client, workspa
 async def test_a_cancelled_request_stops_the_worker_and_the_next_one_runs(client, workspace):
     domain = workspace / "tabletop" / "domain.pddl"
     domain.write_text(domain.read_text() + "\n; edited: the static checks run again\n")
-    uri = await _open(client, domain)
+    uri = await open_document(client, domain)
     before = (await client.protocol.send_request_async("tmpc/stats", {})).worker
     rid = "static-to-cancel"
     pending = client.protocol.send_request(
