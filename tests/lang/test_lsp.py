@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from lsprotocol import types as T
 from pytest_lsp import ClientServerConfig, LanguageClient
 
-from tests.lspclient import open_document, published
+from tests.lspclient import mark, open_document, published
 from tmpc.lang.formatter import format_doc
 from tmpc.lang.sexpr import parse_sexpr
 from tmpc.lang.source import SourceFile
@@ -76,16 +76,18 @@ async def test_diagnostics_after_open_and_after_an_incremental_edit(client, work
     assert not [d for d in client.diagnostics[uri] if d.severity == T.DiagnosticSeverity.Error]
     # two mistakes at once (a misspelled predicate, a bad number of arguments): both reported
     at = _pos(text, "(arm-empty ?m) (at ?m ?x))", into=1)
+    before = mark(client, uri)
     _change(client, uri, 2, at, T.Position(line=at.line, character=at.character + 9), "arm-emty")
-    await published(client, uri)
+    await published(client, uri, before)
     codes = _codes(client, uri)
     assert "E200" in codes
     bad = next(d for d in client.diagnostics[uri] if d.code == "E200")
     assert bad.range.start == at and "arm-empty" in bad.message + "".join(
         str(bad.data.get("hint")) for _ in [0])
     # undo: clean again
+    before = mark(client, uri)
     _change(client, uri, 3, at, T.Position(line=at.line, character=at.character + 8), "arm-empty")
-    await published(client, uri)
+    await published(client, uri, before)
     assert "E200" not in _codes(client, uri)
 
 
