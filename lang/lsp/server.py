@@ -15,6 +15,7 @@ import json
 import logging
 import os
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, replace
 
@@ -35,8 +36,10 @@ from tmpc.lang.source import SourceFile, Span
 
 log = logging.getLogger("tmpc.lsp")
 
-#: seconds a document waits after an edit before it is checked (edits in between restart it)
-DEBOUNCE = 0.02
+#: seconds a document waits after an edit before it is checked (edits in between restart it).
+#: Short: edits that arrive while a check runs queue behind it and restart the wait, so a burst
+#: (typing, a paste as many changes) is checked once after it anyway
+DEBOUNCE = 0.005
 #: time budgets (s) of worker requests
 BUDGETS = {"witness": 60.0, "evaluate": 60.0, "static": 120.0}
 
@@ -44,9 +47,12 @@ BUDGETS = {"witness": 60.0, "evaluate": 60.0, "static": 120.0}
 @dataclass
 class Hooks:
     """What the composition root injects: ``explain`` (compiled meaning of a geometric
-    predicate, see :func:`tmpc.compiler.explain.explain_predicate`) and the worker's command."""
+    predicate, see :func:`tmpc.compiler.explain.explain_predicate`), ``warm`` (loads what
+    ``explain`` needs; called on a background thread once the first diagnostics are out, so the
+    first hover does not pay for the imports) and the worker's command."""
 
     explain: object = None
+    warm: object = None
     worker_command: list[str] | None = None
 
 
@@ -85,6 +91,7 @@ class TmpcServer(LanguageServer):
         self.worker = Worker(hooks.worker_command) if hooks.worker_command else None
         #: pending "open in tmpc view?" questions (kept so they are not garbage collected)
         self._offers: set[asyncio.Future] = set()
+        self._warm_started = False
 
     # ---- checking --------------------------------------------------------------------------
     def schedule(self, path: str) -> None:
@@ -119,6 +126,15 @@ class TmpcServer(LanguageServer):
         t0 = self._edited.pop(path, None)
         if t0 is not None:
             self.latencies.append(time.perf_counter() - t0)
+        if self.hooks.warm is not None and not self._warm_started:
+            self._warm_started = True
+            threading.Thread(target=self._warm, name="tmpc-warm", daemon=True).start()
+
+    def _warm(self) -> None:
+        try:
+            self.hooks.warm()
+        except Exception:                       # the first hover will say what is wrong
+            log.exception("warming the explain hook failed")
 
     def analysis(self, path: str) -> Analysis | None:
         a = self.analyses.get(path)
