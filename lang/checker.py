@@ -339,6 +339,8 @@ class Checker:
             self.sink.add(warning("W013", f"the domain uses `{t.name.text}`, an object of the "
                                   "problem", t.span, "declare it in the domain's `(:constants ...)`",
                                   related=[Related(info.name.span, "declared here")]))
+        if info is None and in_domain and self.domain.dialect is A.Dialect.PLANET:
+            return self._planet_frame(t)
         if info is None and self.problem is None and self.domain.form == "domain":
             self.sink.add(warning("W013", f"`{t.name.text}` is not a constant of the domain; it "
                                   "must be an object of every problem", t.span,
@@ -353,6 +355,17 @@ class Checker:
                                  if in_domain else "declare it in `(:objects ...)`")))
             return None
         return info.types
+
+    def _planet_frame(self, t: A.Const) -> None:
+        """planet's domains name robot links as constants they never declare (its
+        clutter_nohit.pddl: ``l_upper_arm_link``). The name becomes an untyped constant: W018
+        once, no type check, never an action's argument; the scene resolves it (a robot frame or
+        an object, else E822 at run time)."""
+        self.sink.add(warning("W018", f"`{t.name.text}` is not declared; as in planet, it is read "
+                              "as a robot frame or scene object", t.span,
+                              "declare it in `(:constants ...)` to give it a type"))
+        self.scope.objects[t.name.key] = ObjectInfo(t.name, (), constant=True)
+        return None
 
     def _unknown_objects(self, item: A.Atom) -> bool:
         """Legacy init facts naming undeclared objects (tmit-star's clutter pb_11 has them) are

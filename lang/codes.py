@@ -199,6 +199,8 @@ _TABLE = (
     Code("W016", WARNING, "a local predicate or helper shadows an included helper of the same "
                           "name"),
     Code("W017", WARNING, "an extra `)` in a legacy planet/tmit-star file: tolerated"),
+    Code("W018", WARNING, "a planet domain names a constant it does not declare (a robot link, "
+                          "as planet's clutter_nohit does): read as a robot frame or scene object"),
 
     # Scenes and configurations
     Code("E500", ERROR, "malformed JSON (with the position; trailing commas, comments, single "

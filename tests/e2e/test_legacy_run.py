@@ -138,3 +138,29 @@ def test_run_solves_the_tmit_star_example(tmp_path):
     path.write_text(json.dumps(doc))
     report = validate_plan(problem.world, str(path))
     assert report.valid, report.text()
+
+
+def test_planet_names_robot_links_as_undeclared_constants(tmp_path, capsys):
+    """planet's clutter_nohit.pddl names robot links (`l_upper_arm_link`) without declaring
+    them (L): in the planet dialect that is a warning (W018), and the name is the robot's frame
+    when the configuration gives the robot."""
+    import shutil
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.compile import compile_world
+    from tmpc.runtime.cli.main import main
+    ex = tmp_path / "planet-sort"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    dom = ex / "domain.pddl"
+    dom.write_text(dom.read_text().replace(
+        ":precondition (and (holding ?m ?x) (above ?m ?s))",
+        ":precondition (and (holding ?m ?x) (above ?m ?s) (above panda_link7 ?s))"))
+    capsys.readouterr()
+    assert main(["check", str(ex / "sort.toml")]) == 0
+    err = capsys.readouterr().err
+    assert "warning[W018]" in err and "panda_link7" in err and "E206" not in err, err
+    compiled = compile_world(open_world(ex / "sort.toml"))
+    assert compiled.tables.entity("panda_link7") is not None         # the robot's frame
+    # never an action argument: it has no type
+    assert not [a for a in compiled.ground.actions if "panda_link7" in a.args]
+    assert any("panda_link7" in g.args for g in compiled.ground.geometric)
