@@ -46,10 +46,12 @@ _CODES = {
 _HINTS = {
     "E703": "tmpc runs Lua predicates in a sandbox: no os, io, debug, load*, dofile, package, "
             "coroutine or string.dump; require serves only 'tmit-star'",
-    "E704": "an infinite loop? if the predicate really needs more, raise `lua_instructions` or "
-            "`lua_seconds` under [planner] in the run manifest",
-    "E705": "if the file really needs more, raise `lua_memory` under [planner] in the run "
-            "manifest (one string.rep may build at most 16 MiB)",
+    "E704": "an infinite loop? if the predicate really needs more, raise the limit: "
+            "`--lua-instructions N` / `--lua-seconds S` on the command line, or `lua_instructions`"
+            " / `lua_seconds` under [planner] in a run manifest",
+    "E705": "if the file really needs more, raise the limit: `--lua-memory BYTES` on the command "
+            "line, or `lua_memory` under [planner] in a run manifest (one string.rep may build "
+            "at most 16 MiB)",
 }
 
 
@@ -64,10 +66,24 @@ class LuaLimits:
     string_bytes: int = 16 * 1024 * 1024
 
 
+#: limits given on the command line (``--lua-instructions`` ...): they win over any
+#: configuration's, so a legacy planet/tmit-star configuration, which has no place for them,
+#: can raise them too. Set by the CLI (:func:`override_lua_limits`).
+_OVERRIDES: dict[str, float] = {}
+
+
+def override_lua_limits(instructions: int | None = None, seconds: float | None = None,
+                        memory: int | None = None) -> None:
+    """Make these limits (the ones given) win over every configuration's in this process."""
+    given = {"lua_instructions": instructions, "lua_seconds": seconds, "lua_memory": memory}
+    _OVERRIDES.update({k: v for k, v in given.items() if v is not None})
+
+
 def lua_limits(config) -> LuaLimits:
-    """The sandbox's limits for a run configuration: its ``[planner]`` ``lua_instructions``,
-    ``lua_seconds`` and ``lua_memory``, else the defaults (also without a configuration)."""
-    params = dict(getattr(config, "params", ()) or ())
+    """The sandbox's limits: the command line's (:func:`override_lua_limits`), else a run
+    configuration's ``[planner]`` ``lua_instructions``, ``lua_seconds`` and ``lua_memory``, else
+    the defaults (also without a configuration)."""
+    params = {**dict(getattr(config, "params", ()) or ()), **_OVERRIDES}
     base = LuaLimits()
     return LuaLimits(instructions=int(params.get("lua_instructions", base.instructions)),
                      memory=int(params.get("lua_memory", base.memory)),

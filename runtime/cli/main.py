@@ -123,11 +123,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: the commands that load legacy Lua predicates (and take the sandbox's limits)
+LUA_COMMANDS = {"check", "compile", "eval", "sample", "run", "validate"}
+
+
 def _configure(name: str, p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="diagnostics as text (default) or JSON on stdout")
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                    help="show tracebacks of internal errors")
+    if name in LUA_COMMANDS:
+        g = p.add_argument_group("legacy Lua predicates (these win over a run manifest's "
+                                 "[planner] lua_* values)")
+        g.add_argument("--lua-instructions", type=POSITIVE_INT, metavar="N",
+                       help="instructions one Lua call may run (default 10,000,000)")
+        g.add_argument("--lua-seconds", type=SECONDS, metavar="S",
+                       help="CPU seconds one Lua call may take (default 10)")
+        g.add_argument("--lua-memory", type=POSITIVE_INT, metavar="BYTES",
+                       help="memory a Lua file may use (default 67,108,864)")
     if name == "check":
         p.add_argument("files", nargs="+", metavar="FILE", help="domain/problem/module files")
         p.add_argument("--static", action="store_true",
@@ -401,6 +414,9 @@ def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from tmpc.lang.diagnostics import TmpcError
+    if args.command in LUA_COMMANDS:
+        from tmpc.lang.lua import override_lua_limits
+        override_lua_limits(args.lua_instructions, args.lua_seconds, args.lua_memory)
     try:
         return COMMANDS[args.command][0](args)
     except TmpcError as exc:

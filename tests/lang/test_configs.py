@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from tests.support import DOCS, EXAMPLES, FIXTURES, LEGACY, pos_of, raises, where
 from tmpc.lang.diagnostics import SceneError
 from tmpc.lang.source import SourceFile
@@ -349,3 +351,30 @@ def test_lua_limits_come_from_the_manifest(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 1 and "error[E704]" in r.stderr and "time limit (0.5 s" in r.stderr
     assert "`lua_seconds`" in r.stderr, r.stderr
+
+
+def test_lua_limits_from_the_command_line_for_a_legacy_configuration(tmp_path, capsys):
+    """A planet TOML has no place for the sandbox's limits (L 1): `--lua-seconds` and
+    `--lua-instructions` set them, over a manifest's too, and the hints name the flags."""
+    from tmpc.lang import lua
+    from tmpc.runtime.cli.main import main
+    ex = tmp_path / "ps"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    lua_file = ex / "sort.lua"
+    lua_file.write_text('for i = 1, 3e6 do local s = ("x"):rep(1e6) end\n' + lua_file.read_text())
+    saved = dict(lua._OVERRIDES)
+    try:
+        capsys.readouterr()
+        assert main(["check", str(ex / "sort.toml"), "--lua-seconds", "0.3"]) == 1
+        err = capsys.readouterr().err
+        assert "error[E704]" in err and "time limit (0.3 s" in err and "--lua-seconds" in err
+        lua._OVERRIDES.clear()
+        lua_file.write_text("for i = 1, 1e5 do end\n" + lua_file.read_text())
+        assert main(["check", str(ex / "sort.toml"), "--lua-instructions", "1000"]) == 1
+        assert "instruction limit (1,000)" in capsys.readouterr().err
+    finally:
+        lua._OVERRIDES.clear()
+        lua._OVERRIDES.update(saved)
+    with pytest.raises(SystemExit) as exc:
+        main(["check", str(ex / "sort.toml"), "--lua-seconds", "-1"])
+    assert exc.value.code == 2
