@@ -347,6 +347,9 @@ _TABLE = (
                         "(domain and problem) the plan was made for"),
     Code("E813", ERROR, "a `--tolerance` that is negative or not finite, or a `--resolution` that "
                         "is not a finite number > 0"),
+    Code("W830", WARNING, "`tmpc validate`: a released object that does not rest on a support "
+                          "(its gap above the surface > 1 cm, or tilted > 5°); an error with "
+                          "--strict"),
     Code("E817", ERROR, "a plan made for another problem: it names joints the robot does not have "
                         "or objects the scene does not (`validate`, `view`)"),
     Code("E814", ERROR, "`tmpc view --state I` (a PNG snapshot) with no state I in the plan"),

@@ -243,6 +243,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        choices=("auto", "tmpc", "tmit-star", "planet"),
                        help="how the plan was written (default auto: tmpc for tmpc-plan/1, "
                        "else the planner a bare array's action spelling names; docs/validate.md)")
+        p.add_argument("--strict", action="store_true",
+                       help="warnings are violations: a released object that does not rest on a "
+                       "support (W830) makes the plan invalid")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
     elif name == "view":
         p.add_argument("input", metavar="INPUT", help="the run configuration or artifact")

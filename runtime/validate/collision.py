@@ -188,6 +188,22 @@ class Checker:
             self.geoms.append(_Geom(b, np.asarray(T, float), fcl.CollisionObject(geom),
                                     None if hull is None else fcl.CollisionObject(hull), c, h))
 
+    def object_aabb(self, name: str, T: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """World axis-aligned bounds (lower, upper) of a scene object's geometry at pose ``T``
+        (None: it has no shape). Exact for a box's lowest and highest points."""
+        b = self.object_body.get(name.lower())
+        if b is None:
+            return None
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for g in self.geoms:
+            if g.body != b:
+                continue
+            W = T @ g.local
+            c = W[:3, :3] @ g.c + W[:3, 3]
+            h = np.abs(W[:3, :3]) @ g.h
+            lo, hi = np.minimum(lo, c - h), np.maximum(hi, c + h)
+        return lo, hi
+
     def bodies_named(self, name: str) -> list[int] | None:
         """Bodies an allowed-pair name stands for ([]: a known name without geometry)."""
         desc = self.desc

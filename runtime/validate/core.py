@@ -61,6 +61,10 @@ CONVENTIONS = ("auto", "tmpc", "tmit-star", "planet")
 LEGACY_CONVENTIONS = ("tmpc", "tmit-star", "planet")
 #: positions (m) and angles (rad) closer than this are the same
 POSE_TOL = 1e-4
+#: a released object rests on a support when its lowest point is at most this far above the
+#: support's top (or the support region's floor) and this far into it (m), and its nearest axis
+#: is within SUPPORT_TILT of vertical (rad)
+SUPPORT_GAP, SUPPORT_SINK, SUPPORT_TILT = 0.01, 0.005, math.radians(5.0)
 #: slack on joint limits and on values that must not change (rad or m)
 JOINT_TOL = 1e-6
 @dataclass
@@ -82,10 +86,11 @@ class Validator:
     """Validate plans for one world (a run configuration with a domain and a problem)."""
 
     def __init__(self, world, tolerance: float | None = None, resolution: float = 0.05,
-                 convention: str = "auto"):
+                 convention: str = "auto", strict: bool = False):
         if convention not in CONVENTIONS:
             raise ValueError(f"convention must be one of {CONVENTIONS}")
         self.convention_option = convention
+        self.strict = strict
         self.convention = "tmpc"
         self.world, self.scene = world, world.scene
         self.tolerance = default_tolerance(world) if tolerance is None else float(tolerance)
@@ -139,7 +144,7 @@ class Validator:
         if self.convention not in LEGACY_CONVENTIONS:
             self.convention = "tmpc"
         self._legacy = {"motions": 0, "snaps": []}
-        self.v = rep.violations
+        self.v, self.w = rep.violations, rep.warnings
         self._linked = set()
         self._check_action_list(plan)
         prev: _State | None = None
@@ -162,6 +167,10 @@ class Validator:
 
     def add(self, state, kind, message, to=None, **details) -> None:
         self.v.append(Violation(state, kind, message, to, details))
+
+    def warn(self, state, kind, message, **details) -> None:
+        """A warning (W830): an error too with ``strict``."""
+        (self.v if self.strict else self.w).append(Violation(state, kind, message, None, details))
 
     def _check_action_list(self, plan: Plan) -> None:
         if plan.actions is None:
@@ -351,6 +360,9 @@ class Validator:
         self._check_joints(ps, st)
         self._check_base(st)
         self._check_objects(st, prev)
+        if prev is not None:
+            for o in sorted(set(prev.held) - set(st.held)):
+                self._check_support(st, o)
         pairs = self.checker.collisions(st.link_T, st.objects, st.held)
         for a, b, d in pairs:
             self.add(st.index, "collision", f"{a} collides with {b} (penetration {d:.4f} m)",
@@ -449,6 +461,52 @@ class Validator:
                 what = "static " if not o.movable else ""
                 self.add(st.index, "object", f"{what}object `{o.name}` moved "
                          f"{_pose_text(T, prev.objects[o.name])} but is not held")
+
+    def _check_support(self, st: _State, name: str) -> None:
+        """A released object should rest on something (W830, an error with --strict): its
+        lowest point within SUPPORT_GAP above a surface's support-region floor (or another
+        object's top) under its centre, and upright within SUPPORT_TILT."""
+        T = st.objects.get(name)
+        box = self.checker.object_aabb(name, T) if T is not None else None
+        if box is None:
+            return
+        bottom, centre = box[0][2], T[:3, 3]
+        tilt = math.acos(min(1.0, float(np.max(np.abs(T[2, :3])))))
+        best = None                              # (gap, support) of the nearest support below
+        for o in self.scene.objects:
+            if o.name == name or o.name in st.held:
+                continue
+            floor = self._support_floor(st, o, centre)
+            below = None if floor is None else bottom - floor
+            if below is not None and below >= -SUPPORT_SINK and (best is None or below < best[0]):
+                best = (below, o.name)
+        if best is not None and best[0] <= SUPPORT_GAP and tilt <= SUPPORT_TILT:
+            return
+        where = (f"{best[0] * 100:.1f} cm above `{best[1]}`" if best is not None
+                 else "over no support")
+        self.warn(st.index, "support", f"released object `{name}` is {where}, tilted "
+                  f"{math.degrees(tilt):.1f}° (resting means a gap <= {SUPPORT_GAP * 100:g} cm "
+                  f"and a tilt <= {math.degrees(SUPPORT_TILT):g}°)", object=name,
+                  gap=None if best is None else round(best[0], 4),
+                  support=None if best is None else best[1],
+                  tilt=round(math.degrees(tilt), 2))
+
+    def _support_floor(self, st: _State, o, point: np.ndarray) -> float | None:
+        """The height ``o`` offers under ``point`` (world): its support region's floor when it
+        is a surface and ``point`` is over the region, else its top when ``point`` is over its
+        bounds; None when ``point`` is not over it."""
+        T = st.objects.get(o.name)
+        if T is None:
+            return None
+        if o.support is not None:
+            local = np.linalg.inv(T) @ np.append(point, 1.0)
+            lo, hi = o.support.lower, o.support.upper
+            if lo[0] <= local[0] <= hi[0] and lo[1] <= local[1] <= hi[1]:
+                return float((T @ np.array([local[0], local[1], lo[2], 1.0]))[2])
+        box = self.checker.object_aabb(o.name, T)
+        if box is not None and np.all(box[0][:2] <= point[:2]) and np.all(point[:2] <= box[1][:2]):
+            return float(box[1][2])
+        return None
 
     def _moved(self, prev: _State, st: _State) -> list[str]:
         """The coordinates that differ between two states (``base_pose`` first)."""
@@ -644,13 +702,15 @@ def _dict_text(d: dict) -> str:
 
 
 def validate_plan(world, plan: Plan | str, tolerance: float | None = None,
-                  resolution: float = 0.05, convention: str = "auto") -> Report:
-    """Validate ``plan`` (a :class:`Plan` or a path) in ``world``; see the module docstring."""
+                  resolution: float = 0.05, convention: str = "auto",
+                  strict: bool = False) -> Report:
+    """Validate ``plan`` (a :class:`Plan` or a path) in ``world``; see the module docstring.
+    ``strict``: warnings (a released object that does not rest, W830) are violations."""
     _check_world(world)
     check_numbers(tolerance, resolution)
     if not isinstance(plan, Plan):
         plan = read_plan(plan)
-    return Validator(world, tolerance, resolution, convention).validate(plan)
+    return Validator(world, tolerance, resolution, convention, strict).validate(plan)
 
 
 def _check_world(world) -> None:

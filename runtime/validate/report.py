@@ -36,6 +36,8 @@ class Report:
     actions: int
     motion_checks: int = 0
     violations: list[Violation] = field(default_factory=list)
+    #: W830: released objects that do not rest on a support (violations with --strict)
+    warnings: list[Violation] = field(default_factory=list)
     seconds: float = 0.0
     tolerance: float = 0.0
     resolution: float = 0.0
@@ -60,6 +62,9 @@ class Report:
         lines += [f"  {v.text()}" for v in self.violations[:SHOW]]
         if len(self.violations) > SHOW:
             lines.append(f"  ... and {len(self.violations) - SHOW} more (--json lists all)")
+        lines += [f"warning[W830]: {w.text()}" for w in self.warnings[:SHOW]]
+        if len(self.warnings) > SHOW:
+            lines.append(f"  ... and {len(self.warnings) - SHOW} more warnings (--json lists all)")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -68,4 +73,5 @@ class Report:
                 "motion_checks": self.motion_checks, "tolerance": self.tolerance,
                 "resolution": self.resolution, "kinematics": self.kinematics,
                 "status": self.status, "seconds": round(self.seconds, 3), "notes": self.notes,
-                "violations": [v.as_json() for v in self.violations]}
+                "violations": [v.as_json() for v in self.violations],
+                "warnings": [{"code": "W830", **w.as_json()} for w in self.warnings]}

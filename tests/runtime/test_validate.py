@@ -500,3 +500,62 @@ def test_tmit_star_plans_snap_grasped_objects_onto_the_frame(tabletop, plan):
     assert "2 grasps" in note
     got = validate(v, _legacy(plan, "planet"))
     assert any(x.kind == "held" for x in got.violations), got.text()
+
+
+# ---- released objects rest on a support (L 9) -----------------------------------------------
+
+def _released(validator, name: str, T) -> list:
+    """The W830 warnings for ``name`` released at world pose ``T`` (the other objects where the
+    scene puts them)."""
+    from types import SimpleNamespace
+
+    from tmpc.runtime.plans import pose_matrix
+    objects = {o.name: pose_matrix(o.pose.translation, o.pose.rotation)
+               for o in validator.scene.objects}
+    objects[name] = T
+    validator.v, validator.w, validator.strict = [], [], False
+    validator._check_support(SimpleNamespace(index=3, objects=objects, held={}), name)
+    return validator.w
+
+
+def _at(x, y, z, roll=0.0):
+    c, s = np.cos(roll), np.sin(roll)
+    T = np.eye(4)
+    T[:3, :3] = [[1, 0, 0], [0, c, -s], [0, s, c]]
+    T[:3, 3] = (x, y, z)
+    return T
+
+
+def test_a_released_object_must_rest_on_a_support(tabletop):
+    # the tray's support region starts at z 0.405 (its top is 0.41); a cube's half height 0.025
+    floor = 0.405
+    assert _released(tabletop, "red_cube", _at(0.45, -0.3, floor + 0.025 + 0.008)) == []
+    high = _released(tabletop, "red_cube", _at(0.45, -0.3, floor + 0.025 + 0.10))
+    assert [(w.kind, w.details["support"], w.details["gap"]) for w in high] == \
+        [("support", "tray", pytest.approx(0.10, abs=1e-6))]
+    assert "10.0 cm above `tray`" in high[0].message
+    tilted = _released(tabletop, "red_cube", _at(0.45, -0.3, floor + 0.034, roll=0.17))
+    assert tilted and tilted[0].details["tilt"] == pytest.approx(np.degrees(0.17), abs=0.01)
+    nothing = _released(tabletop, "red_cube", _at(2.0, 2.0, 0.1))
+    assert "over no support" in nothing[0].message and nothing[0].details["gap"] is None
+    # stacked on the other cube (no support region: its top counts)
+    assert _released(tabletop, "red_cube", _at(0.6, 0.25, 0.45 + 0.025 + 0.002)) == []
+
+
+def test_floating_releases_warn_and_strict_makes_them_errors(tabletop_world, tmp_path, capsys):
+    """The tabletop planner releases cubes in the air (its `over` allows 15 cm): validate says
+    so (W830) and stays valid; --strict makes the plan invalid (exit 1)."""
+    from tmpc.runtime.cli.main import main
+    from tmpc.runtime.validate import validate_plan
+    plan = tmp_path / "plan.json"
+    capsys.readouterr()
+    assert main(["run", str(TABLETOP), "--seed", "0", "-q", "-o", str(plan)]) == 0
+    rep = validate_plan(tabletop_world, str(plan))
+    assert rep.valid and len(rep.warnings) == 2
+    assert all(w.details["gap"] > 0.05 for w in rep.warnings)
+    capsys.readouterr()
+    assert main(["validate", str(TABLETOP), str(plan)]) == 0
+    assert capsys.readouterr().out.count("warning[W830]: state ") == 2
+    assert main(["validate", str(TABLETOP), str(plan), "--strict", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    assert not doc["valid"] and [v["kind"] for v in doc["violations"]] == ["support"] * 2
