@@ -2,7 +2,7 @@
 
 The examples are copied into a temporary workspace, so edits and renames never touch the repo.
 The server runs without its worker here (``--no-worker``); the worker features are tested in
-test_lsp_worker.py.
+tests/runtime/test_lsp_worker.py, the process itself (start, --tcp) in test_lsp_process.py.
 """
 
 from __future__ import annotations
