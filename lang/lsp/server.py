@@ -18,6 +18,7 @@ import tempfile
 import threading
 import time
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 from lsprotocol import types as T
 from pygls.exceptions import JsonRpcInvalidParams
@@ -60,6 +61,24 @@ class Hooks:
 class Analysis:
     check: Check
     index: Index
+
+    @cached_property
+    def scope(self):
+        """A checked program's scope (for lowering a predicate body), or None; computed once
+        per check (hovers reuse it)."""
+        progs = self.check.report.programs
+        if progs:
+            return progs[0].scope
+        # the problem has errors: the domain alone; the actions have errors: the declarations
+        # alone (a predicate's meaning never depends on an action)
+        for src in self.check.report.sources:
+            if src.domain is None:
+                continue
+            for domain in (src.domain, replace(src.domain, actions=(), derived=())):
+                checked, _ = Program(domain, None, src.modules).check()
+                if checked is not None:
+                    return checked.scope
+        return None
 
 
 class TmpcProtocol(LanguageServerProtocol):
@@ -150,22 +169,6 @@ class TmpcServer(LanguageServer):
     def lua_path(self, a: Analysis) -> str | None:
         return a.check.config.semantics if a.check.config is not None else None
 
-    def scope_of(self, a: Analysis):
-        """A checked program's scope (for lowering a predicate body), or None."""
-        progs = a.check.report.programs
-        if progs:
-            return progs[0].scope
-        # the problem has errors: the domain alone; the actions have errors: the declarations
-        # alone (a predicate's meaning never depends on an action)
-        for src in a.check.report.sources:
-            if src.domain is None:
-                continue
-            for domain in (src.domain, replace(src.domain, actions=(), derived=())):
-                checked, _ = Program(domain, None, src.modules).check()
-                if checked is not None:
-                    return checked.scope
-        return None
-
     async def work(self, method: str, params: dict) -> dict:
         if self.worker is None:
             raise WorkerError("this server was started without a worker (heavy features off)")
@@ -254,7 +257,7 @@ def _register(ls: TmpcServer) -> None:  # noqa: C901 - one small handler per LSP
             return T.Hover(contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value=text)) \
                 if text else None
         text = hover.hover_text(occ, a.index, a.check.files, norm, ls.hooks.explain,
-                                ls.scope_of(a), ls.lua_path(a))
+                                a.scope, ls.lua_path(a))
         return T.Hover(contents=T.MarkupContent(kind=T.MarkupKind.Markdown, value=text),
                        range=span_range(src, occ.span))
 
