@@ -198,16 +198,15 @@ class PlanningProblem:
     def warm_up(self, rng: np.random.Generator) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so
         planning time is planning: every action schema's projector at the projection batch
-        shape, the goal's, and the collision checker's kinematics at the batch sizes motions
-        use (the pads below a chunk; a chunk-long batch loads its kernel when it first
-        comes). Returns the seconds spent here, waiting included (also in ``compile``)."""
+        shape, the goal's, and the collision checker's kinematics at its padded batch sizes
+        (every batch runs in chunks of at most one of them). Returns the seconds spent here,
+        waiting included (also in ``compile``)."""
         t = time.perf_counter()
         self.start_warm_up(rng)
         mode = self.initial
         for n in PAD_SIZES:
-            if n < CHUNK:
-                self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
-                                           attached=mode.held)
+            self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
+                                       attached=mode.held)
         for fut in self._warming:
             fut.result()
         spent = time.perf_counter() - t

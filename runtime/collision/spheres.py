@@ -189,9 +189,9 @@ class Plan:
     """Index arrays of one batch call (object placements and held objects fixed).
 
     ``mv``: the moving geometries (global ids; robot links and held objects), hanging on frames
-    ``used[fpos]``; ``mm``: pairs of moving geometries (positions in ``mv``); ``by_box``: per
-    obstacle box, the moving positions paired with it; ``ff``: pairs of geometries that do not
-    move in the batch (global ids, checked once).
+    ``used[fpos]``; ``mm``: pairs of moving geometries (positions in ``mv``); ``bb_m``,
+    ``bb_w``: per (moving, obstacle box) pair, the moving position and the box; ``ff``: pairs
+    of geometries that do not move in the batch (global ids, checked once).
     """
 
     used: np.ndarray
@@ -206,7 +206,8 @@ class Plan:
     cov_c: np.ndarray            # (3, M, K) in frame coordinates, component first
     cov_r: np.ndarray            # (M, K), padding _NEVER
     mm: np.ndarray               # (P, 2)
-    by_box: list[tuple[int, np.ndarray]]
+    bb_m: np.ndarray             # (K,) moving position of each (moving, obstacle box) pair
+    bb_w: np.ndarray             # (K,) its obstacle box
     box_geom: np.ndarray         # (W,) global id of each obstacle
     box_R: np.ndarray            # (W, 3, 3) world rotation
     box_t: np.ndarray            # (W, 3) world center
@@ -284,7 +285,8 @@ class FirstPass:
         one = np.where(ma[ma ^ mb][:, None], one, one[:, ::-1])   # moving geometry first
         box_geom = np.unique(one[:, 1])
         boxes = [self._world_box(int(g), world_T[int(g)]) for g in box_geom]
-        by_box = [(i, mpos[one[one[:, 1] == g, 0]]) for i, g in enumerate(box_geom)]
+        bb_w = np.searchsorted(box_geom, one[:, 1]).astype(np.int64)
+        bb_m = mpos[one[:, 0]].astype(np.int64)
         M = len(mv)
         lm = local[moving]
         cov_c, cov_r = np.zeros((M, self.K, 3)), np.full((M, self.K), _NEVER)
@@ -304,7 +306,7 @@ class FirstPass:
         tables = [(k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm)]
         return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r,
                     obb_c.reshape(-1, 3), lm[:, :3, :3], obb_h.reshape(-1, 3), cov_c,
-                    cov_r, mm, by_box, box_geom, *arr, pairs[~ma & ~mb],
+                    cov_r, mm, bb_m, bb_w, box_geom, *arr, pairs[~ma & ~mb],
                     [(k, t) for k, t in tables if t is not None])
 
     def _table(self, ga: int, gb: int) -> "PairTable | None":
@@ -379,29 +381,22 @@ class FirstPass:
     @staticmethod
     def _coarse_boxes(c, plan: Plan):
         """Bounding balls vs obstacle boxes, for the states whose whole-robot box (of all balls)
-        meets the obstacle's world box: (moving positions, boxes, states)."""
-        if not plan.by_box:
+        meets the obstacle's world box: (moving positions, boxes, states), all pairs at once."""
+        if not len(plan.bb_m):
             z = np.zeros(0, np.int64)
             return z, z, z
         r = plan.ball_r
         lo, hi = (c - r[:, None, None]).min(0), (c + r[:, None, None]).max(0)   # (3, B)
         half = (np.abs(plan.box_R) @ plan.box_h[..., None])[..., 0] + plan.box_r[:, None]
-        out_m, out_w, out_s = [], [], []
-        for w, gs in plan.by_box:
-            t = plan.box_t[w][:, None]
-            near = np.nonzero(((lo <= t + half[w][:, None]) & (hi >= t - half[w][:, None]))
-                              .all(0))[0]
-            if not len(near):
-                continue
-            x = c[gs][:, :, near] - t[None]                                # (G, 3, S)
-            loc = np.einsum("ji,gjs->gis", plan.box_R[w], x)
-            e = np.maximum(np.abs(loc) - plan.box_h[w][None, :, None], 0.0)
-            gi, si = np.nonzero((e * e).sum(1) <= ((r[gs] + plan.box_r[w]) ** 2)[:, None])
-            out_m.append(gs[gi])
-            out_w.append(np.full(len(gi), w))
-            out_s.append(near[si])
-        cat = (lambda xs: np.concatenate(xs) if xs else np.zeros(0, np.int64))
-        return cat(out_m), cat(out_w), cat(out_s)
+        t = plan.box_t[:, :, None]
+        near = ((lo[None] <= t + half[:, :, None]) & (hi[None] >= t - half[:, :, None])).all(1)
+        k, s = np.nonzero(near[plan.bb_w])                                 # (W, B) -> pairs
+        m, w = plan.bb_m[k], plan.bb_w[k]
+        x = c[m, :, s] - plan.box_t[w]                                     # (N, 3)
+        loc = np.einsum("nji,nj->ni", plan.box_R[w], x)
+        e = np.maximum(np.abs(loc) - plan.box_h[w], 0.0)
+        ok = (e * e).sum(1) <= (r[m] + plan.box_r[w]) ** 2
+        return m[ok], w[ok], s[ok]
 
     @staticmethod
     def _world_cover(Rg, pg, plan: Plan, m, s, order=None) -> list[np.ndarray]:

@@ -603,25 +603,46 @@ class CollisionWorld:
         return hit
 
     def _confirm(self, cand, plan, first_state_only: bool) -> np.ndarray:
-        """Exact fcl on the candidate pairs of the first pass; the sorted colliding states."""
-        mpos = {int(g): i for i, g in enumerate(plan.mv)}
+        """Exact fcl on the candidate pairs of the first pass; the sorted colliding states.
+
+        The world transforms of every (moving geometry, state) the candidates name are computed
+        at once in numpy; the loop only hands them to fcl, for the pairs it reaches (a state's
+        remaining pairs are skipped after its first collision)."""
+        n = len(cand.states)
+        if not n:
+            return np.zeros(0, np.int64)
+        mpos = np.full(len(self.geoms), -1, np.int64)
+        mpos[plan.mv] = np.arange(len(plan.mv))
+        states = cand.states
+        pos = np.stack([mpos[cand.ga], mpos[cand.gb]], 1)                  # (n, 2), -1: fixed
+        moving = pos >= 0
+        i, s = pos[moving], np.broadcast_to(states[:, None], pos.shape)[moving]
+        f = plan.fpos[i]
+        Rf = cand.R[f, :, :, s]                                          # (k, 3, 3)
+        loc = plan.local[i]
+        Rw = Rf @ loc[:, :3, :3]
+        tw = (Rf @ loc[:, :3, 3, None])[..., 0] + cand.p[f, :, s]
+        slot = np.full(pos.shape, -1, np.int64)
+        slot[moving] = np.arange(len(i))
         bad: list[int] = []
         cur, done, placed = -1, False, set()
-        T = np.eye(4)
-        for s, a, b in zip(cand.states.tolist(), cand.ga.tolist(), cand.gb.tolist()):
-            if s != cur:
-                cur, done, placed = s, False, set()
-            if done:
+        import fcl
+        for row, (st, a, b) in enumerate(zip(states.tolist(), cand.ga.tolist(),
+                                             cand.gb.tolist())):
+            if st != cur:
+                cur, done, placed = st, False, set()
+            elif done:
                 continue
-            for g in (a, b):
-                if g in mpos and g not in placed:
-                    i = mpos[g]
-                    f = plan.fpos[i]
-                    T[:3, :3], T[:3, 3] = cand.R[f, :, :, s], cand.p[f, :, s]
-                    self._set(g, T @ plan.local[i])
+            for g, k in ((a, slot[row, 0]), (b, slot[row, 1])):
+                if k >= 0 and g not in placed:
+                    geom = self.geoms[g]
+                    tf = fcl.Transform(Rw[k], tw[k])
+                    geom.obj.setTransform(tf)
+                    if geom.hull is not None:
+                        geom.hull.setTransform(tf)
                     placed.add(g)
             if self._counts(self._depth(a, b)):
-                bad.append(s)
+                bad.append(st)
                 done = True
                 if first_state_only:
                     break
