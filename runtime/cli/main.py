@@ -296,6 +296,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--stop-expected", type=POSITIVE_INT, default=1000, metavar="N",
                        help="stop after N expected observations in a row (default 1000)")
         p.add_argument("--max-observations", type=POSITIVE_INT, default=5000, metavar="N")
+        p.add_argument("--no-refit", dest="refit", action="store_false",
+                       help="move parameters only in repairs, as the thesis does (default: "
+                       "also keep them at the maximum-margin fit of every observation)")
     elif name == "bench":
         p.add_argument("inputs", nargs="+", metavar="INPUT", help="run configurations or "
                        "artifacts (one problem each)")

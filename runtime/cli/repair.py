@@ -72,7 +72,8 @@ def _config(args) -> LoopConfig:
     return LoopConfig(sampling=args.sampling or default, search_seconds=args.search_seconds,
                       max_edits=args.max_edits, stop_unexpected=args.stop_unexpected,
                       stop_expected_run=args.stop_expected,
-                      max_observations=args.max_observations, time_limit=args.time_limit)
+                      max_observations=args.max_observations, time_limit=args.time_limit,
+                      refit=args.refit)
 
 
 def _progress(kind: str, x, trial: int | None = None) -> None:

@@ -52,6 +52,9 @@ class LoopConfig:
     stop_expected_run: int | None = 1000
     max_observations: int = 5000
     time_limit: float | None = None
+    #: keep the parameters at the maximum-margin fit of every observation between repairs
+    #: (:func:`refit`); off: only repairs move them, as in the thesis
+    refit: bool = True
 
 
 @dataclass
@@ -61,6 +64,8 @@ class LoopResult:
     repairs: list[RepairStep]
     status: str
     ties: list[str] = field(default_factory=list)
+    #: parameter refits between repairs (:func:`refit`); ``repairs`` holds the repairs only
+    refits: int = 0
 
     @property
     def unexpected(self) -> int:
@@ -231,6 +236,49 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
     return kept, step, effect
 
 
+def refit(f: Formula, feats: Features) -> Formula:
+    """``f`` with each continuous parameter of its one clause moved to the middle of its
+    zero-error interval over **every** observation, the others held (maximum margin; two
+    sweeps, as the literals' intervals depend on each other). A repair centres the parameters
+    on the observations it fits; between repairs, the expected observations that land in a
+    parameter's gap narrow it too, so active sampling's probes of the boundary bisect it
+    without waiting for an unexpected outcome. ``f`` itself when it has several clauses, no
+    parameter, or misclassifies an observation (that is a repair's job)."""
+    th = f.thetas()
+    if len(f.clauses) != 1 or not len(th) or (predicts(f, feats) != feats.success).any():
+        return f
+    th = th.copy()
+    lits = f.clauses[0]
+    holds = np.ones(len(feats), bool)
+    for lit in f.discrete:
+        holds &= feats.truth[lit.instance] == lit.positive
+    T = [feats.t[lit.instance] for lit in lits]
+    for _ in range(2):
+        for k, lit in enumerate(lits):
+            others = holds.copy()
+            for j in range(len(lits)):
+                if j != k:
+                    others &= T[j] <= th[j]
+            fails = T[k][others & ~feats.success]
+            if not len(fails):
+                continue        # nothing outside restricts it: keep it where the repair put it
+            lo_b, hi_b = lit.instance.template.bounds
+            wins = T[k][others & feats.success]
+            lo = max(float(wins.max()) if len(wins) else lo_b, lo_b)
+            hi = min(float(fails.min()), hi_b)
+            if lo <= th[k] < hi:
+                th[k] = (lo + hi) / 2
+    return f.with_thetas(th) if not np.array_equal(th, f.thetas()) else f
+
+
+def _append(a: Features | None, b: Features) -> Features:
+    if a is None:
+        return b
+    return Features({k: np.concatenate([v, b.t[k]]) for k, v in a.t.items()},
+                    {k: np.concatenate([v, b.truth[k]]) for k, v in a.truth.items()},
+                    np.concatenate([a.success, b.success]))
+
+
 # ---------------------------------------------------------------------------------------------
 # the loop
 
@@ -253,6 +301,7 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
         source.skip = max((o.seq for o in observations), default=0)
     t0 = time.perf_counter()
     status = "observations limit"
+    feats = None                 # features of every observation, kept between repairs
     run = 0
     for o in reversed(observations):
         if not o.expected:
@@ -269,9 +318,26 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
             on_event("repair", step)
         return current, new, tuple(parse_truth(t, rw.target, scope) for t in step.ties), eff
 
+    def refit_after(seq: int, feats: Features) -> Formula:
+        """The current formula refitted after observation ``seq`` (:func:`refit`); a move is
+        stored as a step (hypothesis "refit"), so a resumed loop continues from it."""
+        moved = refit(current, feats)
+        if moved is not current:
+            step = RepairStep(seq, moved.text(True), previous.text(True), 0.0, "refit", 0, 1,
+                              0.0, [0.0], steps[-1].ties if steps else [])
+            store.add_repair(trial, step)
+            steps.append(step)
+            if on_event is not None:
+                on_event("refit", step)
+        return moved
+
     if observations and not observations[-1].expected and \
             (not steps or steps[-1].observation != observations[-1].seq):
         previous, current, rivals, effect = repair()
+    elif observations and cfg.refit and (not steps or steps[-1].observation !=
+                                         observations[-1].seq):
+        # killed between an expected observation and its refit: redo it (deterministic)
+        current = refit_after(observations[-1].seq, rw.features_of(observations))
     while len(observations) < cfg.max_observations:
         unexpected = sum(not o.expected for o in observations)
         if cfg.stop_unexpected is not None and unexpected >= cfg.stop_unexpected:
@@ -298,11 +364,17 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
             on_event("observation", obs)
         if obs.expected:
             run += 1
+            if cfg.refit:
+                feats = _append(feats, f) if feats is not None and \
+                    len(feats) == len(observations) - 1 else rw.features_of(observations)
+                current = refit_after(obs.seq, feats)
             continue
         run = 0
+        feats = None
         previous, current, rivals, effect = repair()
     ties = steps[-1].ties if steps else []
-    return LoopResult(current, observations, steps, status, ties)
+    return LoopResult(current, observations, [s for s in steps if s.hypothesis != "refit"],
+                      status, ties, sum(s.hypothesis == "refit" for s in steps))
 
 
 def comparable(f: Formula, truth: Formula) -> float | None:

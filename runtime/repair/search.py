@@ -19,6 +19,7 @@ parameters re-optimised by gradient after every edit.
 from __future__ import annotations
 
 import heapq
+import math
 import time
 from dataclasses import dataclass, replace
 from functools import lru_cache
@@ -230,6 +231,10 @@ def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
         full = lit.instance.template.full
         if b == len(mids) - 1 and hi >= full:
             x[k] = full      # nothing above restricts it: the literal holds everywhere
+        elif b == len(mids) - 1 and math.isinf(full):
+            # nothing above restricts it, and the feature has no end (a distance): it stays
+            # where the formula had it (the least change), not halfway to the search bound
+            x[k] = max(x[k], (cuts[a] + cuts[a + 1]) / 2)
         else:
             x[k] = (cuts[a] + cuts[b + 1]) / 2
     return x
