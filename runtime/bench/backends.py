@@ -97,7 +97,8 @@ class RayBackend:
         except ImportError:
             raise missing_ray() from None
         self.ray = ray
-        if not ray.is_initialized():
+        self.owned = not ray.is_initialized()          # a cluster this sweep started (or joined)
+        if self.owned:
             # no address: a local cluster of `workers` CPUs (this machine's by default)
             ray.init(address=address, num_cpus=None if address else workers,
                      include_dashboard=False, log_to_driver=False,
@@ -135,7 +136,9 @@ class RayBackend:
         self.flight.clear()
 
     def close(self) -> None:
-        pass
+        """Leave the cluster this sweep connected to (stopping it if the sweep started it)."""
+        if self.owned:
+            self.ray.shutdown()
 
 
 def _cache_env() -> dict:

@@ -55,9 +55,7 @@ class Dispatch:
         prec = {"name": name, "input": str(path), "error": None}
         t = time.perf_counter()
         try:
-            world, how = open_for_run(path, register_run_kernels)
-            if world.artifact is None and how == "compiled":   # compiled into the cache now
-                world, how = open_for_run(path, register_run_kernels)
+            world = open_compiled(path)
             problem = PlanningProblem(world)
             problem.check_goal_reachable()
             problem.check_start()
@@ -157,6 +155,15 @@ class Dispatch:
                                    f"    reproduce: {rec['reproducer']}")
         if self.bench.args.output or self.bench.args.ompl_log:
             self.bench.save()
+
+
+def open_compiled(path):
+    """The world of ``path`` with its artifact (``world.artifact``): an artifact as it is, a run
+    configuration through ``tmpc run``'s artifact cache (compiled into it when missing)."""
+    world, how = open_for_run(path, register_run_kernels)
+    if world.artifact is None and how == "compiled":      # just compiled: open the cache's
+        world, how = open_for_run(path, register_run_kernels)
+    return world
 
 
 def label(planner: str, params: dict, swept: bool = True) -> str:

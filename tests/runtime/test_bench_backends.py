@@ -166,10 +166,7 @@ def test_local_pool_plans_equal_this_process(tmp_path, inline):
 
 
 def _artifact(tmp_path) -> str:
-    from tmpc.compiler.export import open_for_run
-    from tmpc.runtime.problem import register_run_kernels
-    world, _ = open_for_run(CLUTTER, register_run_kernels)
-    return str(world.artifact[0])
+    return str(dispatch.open_compiled(CLUTTER).artifact[0])
 
 
 def test_report_draws_plots_and_a_page(tmp_path):
