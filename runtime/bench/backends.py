@@ -17,8 +17,12 @@ they finish (:meth:`wait`), and cancels what is still running (:meth:`cancel`). 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+from multiprocessing import resource_tracker
 
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.bench.worker import run_task
@@ -40,8 +44,10 @@ class LocalBackend:
 
     def __init__(self, workers: int | None, address=None, memory_mib: int | None = None):
         self.workers = workers or os.cpu_count() or 1
+        _start_resource_tracker()
         self.pool = cf.ProcessPoolExecutor(self.workers,
-                                           mp_context=multiprocessing.get_context("spawn"))
+                                           mp_context=multiprocessing.get_context("spawn"),
+                                           initializer=_die_with_parent)
         self.flight: dict = {}                         # future -> task
 
     def put(self, path, data: bytes):
@@ -65,13 +71,48 @@ class LocalBackend:
         """Stop the runs in flight: their worker processes are ended (this pool's own)."""
         for fut in self.flight:
             fut.cancel()
-        for proc in list(getattr(self.pool, "_processes", {}).values()):
+        procs = list((getattr(self.pool, "_processes", None) or {}).values())
+        for proc in procs:
             if proc.is_alive():
                 proc.kill()
+        for proc in procs:
+            proc.join(1.0)
         self.flight.clear()
+        self.cancelled = True
 
     def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        # after a cancel the pool is broken (its workers were killed): do not wait for it
+        self.pool.shutdown(wait=not getattr(self, "cancelled", False), cancel_futures=True)
+
+
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker now, keeping this thread's signal mask.
+
+    Starting it (which the pool's first process does) unblocks SIGINT and SIGTERM in the calling
+    thread; tmpc blocks them in the main thread and takes them in a watcher thread
+    (:mod:`tmpc.runtime.interrupts`), so a Ctrl-C would otherwise kill the process instead of
+    cancelling the sweep."""
+    if not hasattr(signal, "pthread_sigmask"):
+        resource_tracker.ensure_running()
+        return
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, ())
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+def _die_with_parent() -> None:
+    """A pool worker ends when the sweep's process does (Linux: PR_SET_PDEATHSIG), so a
+    coordinator killed outright leaves no worker planning on."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)   # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:                # the parent died before prctl took effect
+        os._exit(1)
 
 
 def missing_ray() -> InputError:

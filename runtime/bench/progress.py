@@ -29,7 +29,7 @@ class Progress:
         from rich.console import Console
         from rich.progress import (BarColumn, MofNCompleteColumn, Progress as Bar, TextColumn,
                                    TimeElapsedColumn, TimeRemainingColumn)
-        self._bar = Bar(TextColumn("[bold]bench"), BarColumn(), MofNCompleteColumn(),
+        self._bar = Bar(TextColumn("[bold]bench"), BarColumn(bar_width=24), MofNCompleteColumn(),
                         TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                         TextColumn("{task.description}"), console=Console(file=sys.stderr),
                         transient=False)
@@ -49,6 +49,7 @@ class Progress:
         self.cells[cell].append(t if rec.get("solved") and t is not None else float("inf"))
         med = quantile(self.cells[cell], 0.5)
         self.last = f"{cell}: median {'unsolved' if med == float('inf') else f'{med:.2f} s'}"
+        self.now_running = max(0, self.now_running - 1)
         if self._bar is None:
             sys.stderr.write(f"[{self.done}/{self.total}] {cell} seed {rec['seed']}: "
                              f"{rec.get('status')}"
@@ -59,7 +60,7 @@ class Progress:
     def _refresh(self) -> None:
         if self._bar is not None:
             self._bar.update(self._task, completed=self.done, description=(
-                f"done {self.done} · failed {self.failed} · running {self.now_running} · "
+                f"done {self.done} failed {self.failed} running {self.now_running} | "
                 f"{self.last}"))
 
     def close(self) -> None:
