@@ -190,3 +190,24 @@ def test_report_draws_plots_and_a_page(tmp_path):
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
     page = (tmp_path / "rep" / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 3 and "unified" in page
+
+
+def test_ctrl_c_cancels_and_keeps_the_finished_runs(tmp_path, inline, monkeypatch, capsys):
+    """Ctrl-C after the first finished run: the rest is cancelled, the finished run is in the
+    file (and the table), exit 130; --resume then runs only the cancelled one."""
+    out = tmp_path / "r.jsonl"
+    real, cancelled = dispatch.Dispatch.finished, []
+
+    def finished(self, task, rec, progress):
+        real(self, task, rec, progress)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(dispatch.Dispatch, "finished", finished)
+    monkeypatch.setattr(InlineBackend, "cancel", lambda self: cancelled.append(len(self.flight)))
+    assert _bench(out) == 130
+    assert [r["seed"] for r in read_results(out)] == [0] and cancelled
+    assert "every finished run is kept" in capsys.readouterr().err
+    monkeypatch.setattr(dispatch.Dispatch, "finished", real)
+    inline.ran = []
+    assert _bench(out, "--resume") == 0
+    assert [k[2] for k in inline.ran] == [1]
