@@ -306,7 +306,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "(default 10)")
         p.add_argument("--time-limit", type=SECONDS, default=120.0, metavar="S",
                        help="per run (default 120)")
-        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON")
+        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON "
+                       "(tmpc-bench/1), or R.jsonl: a line per run as runs finish (--resume); "
+                       "`bench report`: the report's folder")
         p.add_argument("--ompl-log", metavar="RESULTS.log", help="results in OMPL's benchmark "
                        "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
         p.add_argument("--validate", action="store_true", help="check every plan with the "
