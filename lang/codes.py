@@ -173,6 +173,8 @@ _TABLE = (
     # Benchmarks (`tmpc bench`)
     Code("E830", ERROR, "an output (`-o`, `--ompl-log`) that cannot be written: a directory, no "
                         "such directory, or a directory without write permission"),
+    Code("E831", ERROR, "`tmpc bench --backend ray` without Ray installed; the hint names the "
+                        "`cluster` extra"),
 
     # Internal
     Code("E900", ERROR, "`fmt` would have changed a file's meaning or comments; the file was left "

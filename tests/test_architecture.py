@@ -33,7 +33,7 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
 #: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
 #: language server start without them
 HEAVY = {"jax", "jaxlib", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",
-         "ompl", "collada", "matplotlib", "importlib", "traceback", "dataclasses", "itertools", "json",
+         "ompl", "collada", "matplotlib", "ray", "rich", "importlib", "traceback", "dataclasses", "itertools", "json",
          "pathlib", "xml"}
 
 

@@ -32,7 +32,7 @@ import sys
 import tempfile
 import time
 import traceback
-from dataclasses import asdict, is_dataclass
+from dataclasses import asdict, is_dataclass, replace
 from datetime import datetime
 from pathlib import Path
 
@@ -141,10 +141,15 @@ class Bench:
         self.save()
 
     # ---- one run -----------------------------------------------------------------------------
-    def run(self, problem, prec: dict, planner: str, seed: int) -> dict:
+    def run(self, problem, prec: dict, planner: str, seed: int, params: dict | None = None) -> dict:
+        """One planner × seed on a set-up problem; ``params`` are planner overrides (a sweep's
+        point), recorded when given."""
         rec: dict = {"problem": prec["name"], "planner": planner, "seed": seed}
-        algo = make_planner(planner, problem, seed,
-                            {"heuristic_bias": getattr(self.args, "heuristic_bias", None)})
+        if params is not None:
+            rec["params"] = dict(params)
+        overrides = {"heuristic_bias": getattr(self.args, "heuristic_bias", None)}
+        overrides.update(params or {})
+        algo = make_planner(planner, problem, seed, overrides)
         opt = getattr(algo, "opt", None)
         if is_dataclass(opt):
             self.options.setdefault(planner, asdict(opt))
@@ -193,7 +198,8 @@ class Bench:
         rec["valid"] = None
         if self.args.validate and rec["solved"]:
             self._validate(problem, prec, result, rec)
-        self._progress(rec)
+        if not getattr(self.args, "quiet", False):
+            self._progress(rec)
         return rec
 
     def _memory(self, rec: dict) -> None:
@@ -322,10 +328,14 @@ class Bench:
         return markdown_table(self.summary(), self.args.time_limit)
 
 
-def build_problem(path, rec: dict):
-    """Load, check and compile a problem once (`tmpc run`'s pre-checks; TmpcError if bad)."""
+def build_problem(path, rec: dict, config_params=None):
+    """Load, check and compile a problem once (`tmpc run`'s pre-checks; TmpcError if bad).
+    ``config_params``: the run configuration's planner parameters, for an artifact (which keeps
+    the problem, not the configuration's ``[planner]`` section)."""
     t = time.perf_counter()
     world = open_world(path)
+    if config_params is not None and world.config is not None:
+        world.config = replace(world.config, params=tuple(tuple(p) for p in config_params))
     rec["load_seconds"] = round(time.perf_counter() - t, 4)
     problem = PlanningProblem(world)
     problem.check_goal_reachable()

@@ -104,7 +104,8 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
     "repair": (cmd_repair, "repair an action's geometric precondition from observed executions"),
-    "bench": (cmd_bench, "benchmark planners over problems and seeds (JSON, table, OMPL log)"),
+    "bench": (cmd_bench, "benchmark planners over problems, seeds and parameters (a local "
+              "pool or Ray; JSON, table, OMPL log, plots)"),
     "lsp": (cmd_lsp, "language server for editors (stdio; --tcp PORT)"),
     "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
@@ -308,11 +309,29 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "(default 10)")
         p.add_argument("--time-limit", type=SECONDS, default=120.0, metavar="S",
                        help="per run (default 120)")
-        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON")
+        p.add_argument("-o", "--output", metavar="RESULTS.json", help="results as JSON "
+                       "(tmpc-bench/1), or R.jsonl: a line per run as runs finish (--resume); "
+                       "`bench report`: the report's folder")
         p.add_argument("--ompl-log", metavar="RESULTS.log", help="results in OMPL's benchmark "
                        "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
         p.add_argument("--validate", action="store_true", help="check every plan with the "
                        "independent validator")
+        g = p.add_argument_group("distributed sweeps (docs/bench.md); any of these, or -o "
+                                 "R.jsonl, runs each run as a task; `tmpc bench report "
+                                 "R.jsonl -o DIR` plots a results file")
+        g.add_argument("--backend", choices=("local", "ray"), help="local: a process pool on "
+                       "this machine (the default); ray: Ray tasks (pip install "
+                       "'tmpc[cluster]')")
+        g.add_argument("--address", metavar="auto|HOST:PORT", help="the Ray cluster to join "
+                       "(default: start one on this machine)")
+        g.add_argument("--workers", type=POSITIVE_INT, metavar="N", help="runs in flight "
+                       "(default: this machine's cores; with Ray, the cluster's CPUs)")
+        g.add_argument("--task-memory", type=POSITIVE_INT, default=2048, metavar="MIB",
+                       help="memory a Ray task reserves (default 2048)")
+        g.add_argument("--param", action="append", metavar="NAME=V1,V2,...", help="sweep a "
+                       "planner parameter (repeat: the cross product)")
+        g.add_argument("--resume", action="store_true", help="skip the runs the results file "
+                       "(-o R.jsonl) already has")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",

@@ -25,6 +25,8 @@ class PlannerSpec:
 
     factory: Callable[..., object]
     summary: str
+    #: the ``overrides`` the factory reads: the names ``tmpc bench --param NAME=...`` may sweep
+    parameters: tuple[str, ...] = ()
 
 
 def _unified(problem, seed: int, overrides: dict):
@@ -41,9 +43,11 @@ def _optimal(problem, seed: int, overrides: dict):
 
 PLANNERS: dict[str, PlannerSpec] = {
     "unified": PlannerSpec(_unified,
-                           "composite-space RRT with the Algorithm 1 sampler (thesis ch. 2, planet)"),
+                           "composite-space RRT with the Algorithm 1 sampler (thesis ch. 2, planet)",
+                           ("heuristic_bias",)),
     "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT task plans, lazy transitions, "
-                           "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)"),
+                           "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)",
+                           ("batch_size", "rewire", "first_solution", "until_converged")),
 }
 
 
