@@ -280,14 +280,19 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckRe
     return report
 
 
+def config_program(config, programs) -> CheckedProgram | None:
+    """The checked program whose problem is the run configuration ``config``'s (None: none)."""
+    want = Path(config.problem).resolve()
+    return next((p for p in programs if p.problem is not None and p.problem.span is not None
+                 and Path(p.problem.span.path).resolve() == want), None)
+
+
 def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
     """Every geometric predicate without inline semantics needs a function in the Lua file the
     run configuration names (E707), as the compiler will look it up."""
     out: list[Diagnostic] = []
     for config in ws.configs:
-        prog = next((p for p in programs if p.problem is not None and p.problem.span is not None
-                     and Path(p.problem.span.path).resolve() == Path(config.problem).resolve()),
-                    None)
+        prog = config_program(config, programs)
         if prog is None:
             continue
         external = [d for d in prog.domain.predicates if d.external]
