@@ -242,14 +242,16 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             report = LoadReport()
             config = load_config(path, report=report)
             # the scene, Lua file, domain and problem it names are checked as a run reads them
+            # every mesh must be found and readable (E514, E565): a run needs them all
             load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                       strict_meshes=False, mesh_fallback_dirs=mesh_search_dirs())
+                       mesh_fallback_dirs=mesh_search_dirs(), check_meshes=True)
             ws.files.update(report.files)
             ws.configs.append(config)
             return list(report.warnings)
         else:
             report = LoadReport()
-            load_scene(path, report=report, mesh_fallback_dirs=mesh_search_dirs())
+            load_scene(path, report=report, mesh_fallback_dirs=mesh_search_dirs(),
+                       check_meshes=True)
             ws.files.update(report.files)
             return list(report.warnings)
     except TmpcError as exc:

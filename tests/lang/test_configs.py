@@ -347,7 +347,7 @@ def test_lua_limits_come_from_the_manifest(tmp_path):
     lua.write_text('for i = 1, 3e6 do local s = ("x"):rep(1e6) end\n' + lua.read_text())
     (ex / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
                                  'scene = "scene.xml"\nsemantics = "sort.lua"\n'
-                                 "[planner]\nlua_seconds = 0.5\n")
+                                 'mesh_dir = "meshes"\n[planner]\nlua_seconds = 0.5\n')
     r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "run.toml")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 1 and "error[E704]" in r.stderr and "time limit (0.5 s" in r.stderr
