@@ -67,7 +67,8 @@ def test_manifest_and_members(artifact):
     assert manifest["format"] == "tmpc-artifact/1"
     kernels = manifest["bank"]["kernels"]
     assert {k for k in kernels if k.startswith("cond/")} == {
-        "cond/predicate/reach", "cond/predicate/over", "cond/action/pick", "cond/action/place"}
+        "cond/predicate/reach", "cond/predicate/over", "cond/predicate/resting",
+        "cond/action/pick", "cond/action/place"}
     assert {"fk", "fk/frames", "proj/action/pick", "proj/action/place", "grad/predicate/reach",
             "proj/predicate/over"} <= set(kernels)
     assert all(member in names for member in kernels.values()) and not manifest["bank"]["skipped"]

@@ -211,8 +211,11 @@ def test_geometric_goal_is_projected_and_validated(tmp_path):
     r = _tmpc("run", ex / "tabletop.toml", "--seed", "1", "-q", "-o", out)
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
-    assert doc["actions"] == ["(pick panda_hand_tcp red_cube bench)",
-                              "(place panda_hand_tcp red_cube tray)"]
+    # the red cube ends in the tray (with `resting` the first plan this seed finds may put it
+    # down on the bench on the way, so the exact action list is not pinned)
+    assert doc["actions"][0] == "(pick panda_hand_tcp red_cube bench)"
+    assert [a for a in doc["actions"] if "red_cube" in a][-1] == \
+        "(place panda_hand_tcp red_cube tray)"
     r = _tmpc("validate", ex / "tabletop.toml", out)
     assert r.returncode == 0, r.stdout + r.stderr
     # the robot moved on after the place: to the blue cube, which is not where it placed
