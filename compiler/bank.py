@@ -95,14 +95,19 @@ class KernelBank:
         return jax.jit(fn.python())
 
     # ---- serialization -----------------------------------------------------------------------
-    def export(self, cached: Callable[[str, tuple, Callable[[], bytes]], bytes] | None = None
+    def export(self, cached: Callable[[str, tuple, Callable[[], bytes]], bytes] | None = None,
+               progress: Callable[[int, int, str], None] | None = None
                ) -> tuple[dict[str, bytes], dict[str, str]]:
         """(key -> serialized kernel, key -> why it was skipped) for every registered function.
-        ``cached(key, spec, make)`` may return stored bytes instead of calling ``make()``."""
+        ``cached(key, spec, make)`` may return stored bytes instead of calling ``make()``;
+        ``progress(i, n, key)`` is called before the i-th (1-based) of the n keys."""
         jax = configured()
         out, skipped = {}, {}
         _register_pytrees()
-        for key in self.keys:
+        keys = self.keys
+        for i, key in enumerate(keys, 1):
+            if progress is not None:
+                progress(i, len(keys), key)
             fn = self._functions[key]
             if key in self._exported:
                 out[key] = self._exported[key]

@@ -147,11 +147,15 @@ def _cached(sources: str, options) -> Callable[[str, tuple, Callable[[], bytes]]
     return cached
 
 
-def build_artifact(world, out: str | Path, register=None, run_only: bool = False) -> dict:
+def build_artifact(world, out: str | Path, register=None, run_only: bool = False,
+                   progress=None) -> dict:
     """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``: every
     kernel :meth:`CompiledProgram.register_kernels` names, plus those ``register(world,
     compiled)`` adds (the runtime's), exported; ``run_only``: only what planning calls (the run
-    cache's artifacts). Returns the manifest."""
+    cache's artifacts). ``progress(phase, done, total, detail)``: told each phase, and each
+    kernel as it is exported (the slow part). Returns the manifest."""
+    progress = progress or _quiet
+    progress("compiling the program", 0, 0, "")
     members = _Members()
     cfg, prog = world.config, world.program
     src = {"domain": members.add("src/domain.pddl", Path(cfg.domain).read_bytes()),
@@ -170,7 +174,10 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
     if register is not None:
         register(world, compiled)          # what the runtime adds (the collision checker's)
     sources = digest(json.dumps({k: digest(v) for k, v in sorted(members.files.items())}).encode())
-    exported, skipped = compiled.bank.export(_cached(sources, compiled.options))
+    exported, skipped = compiled.bank.export(
+        _cached(sources, compiled.options),
+        lambda i, n, key: progress("compiling kernels", i, n, kernel_label(key)))
+    progress("writing the artifact", 0, 0, "")
     entries = {key: members.add(f"kernels/{_member_name(key)}.jaxexport", data)
                for key, data in sorted(exported.items())}
     entries.update({key: None for key in skipped})
@@ -205,6 +212,18 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
     return manifest
 
 
+def _quiet(phase: str, done: int, total: int, detail: str) -> None:
+    """No progress report."""
+
+
+def kernel_label(key: str) -> str:
+    """A bank key as a user reads it: ``proj/action/pick@16`` -> ``projector pick``."""
+    kind, _, rest = key.partition("/")
+    name = rest.rpartition("/")[2].partition("@")[0] if rest else ""
+    what = {"cond": "condition", "proj": "projector", "fk": "kinematics", "grad": "gradient"}
+    return f"{what.get(kind, kind)} {name}".strip() if kind != "fk" else "kinematics"
+
+
 def _write(z: zipfile.ZipFile, name: str, data: bytes) -> None:
     """One member with a fixed timestamp: the same input compiles to the same bytes (the
     artifact cache is content-addressed)."""
@@ -231,12 +250,13 @@ def _smt_section(members: _Members, prog) -> dict:
                           for name, text in sorted(templates.items())}}
 
 
-def open_for_run(path, register=None, on_compile=None):
+def open_for_run(path, register=None, on_compile=None, progress=None):
     """The world ``tmpc run`` plans in, and how its kernels were had: an artifact as it is
     (``"artifact"``); a run configuration through the artifact cache (:mod:`tmpc.compiler.cache`):
     ``"cache"`` when an artifact of exactly these sources is there, else ``"compiled"`` after
-    compiling one into the cache (``on_compile(path)`` is called first: it takes a while). A
-    damaged cache entry is compiled again, with a warning."""
+    compiling one into the cache (``on_compile(path)`` is called first: it takes a while;
+    ``progress`` as :func:`build_artifact`'s). A damaged cache entry is compiled again, with a
+    warning."""
     if is_artifact(path):
         return open_world(path), "artifact"
     world = load_world(path)
@@ -255,5 +275,5 @@ def open_for_run(path, register=None, on_compile=None):
     art.parent.mkdir(parents=True, exist_ok=True)
     if on_compile is not None:
         on_compile(art)
-    build_artifact(world, art, register, run_only=True)
+    build_artifact(world, art, register, run_only=True, progress=progress)
     return world, "compiled"

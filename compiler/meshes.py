@@ -28,6 +28,13 @@ def mesh_arrays(path: Path, scale=(1.0, 1.0, 1.0), owner: str = "") -> dict[str,
     scale = tuple(float(v) for v in scale)
     try:
         h = hashlib.sha256(Path(path).read_bytes())
+    except FileNotFoundError:
+        raise SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
+                               "be loaded (no such file)", None,
+                               "collision checks need the mesh: put it there, or set "
+                               "TMPC_MESH_PATH to directories that hold it (searched by relative "
+                               "path and by file name); `tmpc check` on the configuration lists "
+                               "every missing mesh")) from None
     except OSError as exc:
         raise _unreadable(path, owner, exc.strerror or exc) from None
     h.update(repr((scale, code_digest())).encode())
@@ -69,7 +76,3 @@ def _unreadable(path: Path, owner: str, why) -> SceneError:
     return SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
                             f"be loaded ({why})", None, "use an STL/OBJ/PLY file with triangles"))
 
-
-def _unreadable(path, owner: str, why) -> SceneError:
-    return SceneError(error("E565", f"collision mesh `{path}` of {owner or 'an object'} cannot "
-                            f"be loaded ({why})", None, "use an STL/OBJ/PLY file with triangles"))

@@ -229,8 +229,8 @@ _TABLE = (
                         "non-finite parameter that must be positive, or a probability above 1"),
     Code("E513", ERROR, "an unknown parent, a parent loop, or an allowed-collision pair naming "
                         "nothing in the scene"),
-    Code("E514", ERROR, "a mesh file that cannot be found (with strict meshes; the hint lists "
-                        "where tmpc looked)"),
+    Code("E514", ERROR, "a mesh file that cannot be found (with strict meshes, as `tmpc check` "
+                        "loads scenes and run configurations; the hint lists where tmpc looked)"),
     Code("E515", ERROR, "a file named by a run configuration (domain, problem, scene, ...) or a "
                         "scene's allowed-collision CSV that cannot be found"),
     Code("E516", ERROR, "a malformed line in an allowed-collision CSV (expected `nameA,nameB`)"),
@@ -270,7 +270,8 @@ _TABLE = (
     Code("E564", ERROR, "a scene naming a joint the robot does not have, or a fixed/mimic joint "
                         "as controllable"),
     Code("E565", ERROR, "a collision mesh (robot link or scene object) that trimesh cannot load "
-                        "or that has no triangles"),
+                        "or that has no triangles (`tmpc check`: a scene's mesh file that is "
+                        "unreadable, empty, or an STL/OBJ/PLY file without triangles)"),
     Code("E566", ERROR, "a collision check that moves or holds an object the scene marks static"),
     Code("E567", ERROR, "a collision check naming an object the scene does not have (or one "
                         "without a shape)"),

@@ -49,6 +49,8 @@ _HINTS = {
     "E704": "an infinite loop? if the predicate really needs more, raise the limit: "
             "`--lua-instructions N` / `--lua-seconds S` on the command line, or `lua_instructions`"
             " / `lua_seconds` under [planner] in a run manifest",
+    "E709": "read only the fields the message lists (docs/lua.md, Tracing); a surface's "
+            "fields need an argument that has a support region",
     "E705": "if the file really needs more, raise the limit: `--lua-memory BYTES` on the command "
             "line, or `lua_memory` under [planner] in a run manifest (one string.rep may build "
             "at most 16 MiB)",

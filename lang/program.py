@@ -242,14 +242,16 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             report = LoadReport()
             config = load_config(path, report=report)
             # the scene, Lua file, domain and problem it names are checked as a run reads them
+            # every mesh must be found and readable (E514, E565): a run needs them all
             load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                       strict_meshes=False, mesh_fallback_dirs=mesh_search_dirs())
+                       mesh_fallback_dirs=mesh_search_dirs(), check_meshes=True)
             ws.files.update(report.files)
             ws.configs.append(config)
             return list(report.warnings)
         else:
             report = LoadReport()
-            load_scene(path, report=report, mesh_fallback_dirs=mesh_search_dirs())
+            load_scene(path, report=report, mesh_fallback_dirs=mesh_search_dirs(),
+                       check_meshes=True)
             ws.files.update(report.files)
             return list(report.warnings)
     except TmpcError as exc:
@@ -280,14 +282,19 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckRe
     return report
 
 
+def config_program(config, programs) -> CheckedProgram | None:
+    """The checked program whose problem is the run configuration ``config``'s (None: none)."""
+    want = Path(config.problem).resolve()
+    return next((p for p in programs if p.problem is not None and p.problem.span is not None
+                 and Path(p.problem.span.path).resolve() == want), None)
+
+
 def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
     """Every geometric predicate without inline semantics needs a function in the Lua file the
     run configuration names (E707), as the compiler will look it up."""
     out: list[Diagnostic] = []
     for config in ws.configs:
-        prog = next((p for p in programs if p.problem is not None and p.problem.span is not None
-                     and Path(p.problem.span.path).resolve() == Path(config.problem).resolve()),
-                    None)
+        prog = config_program(config, programs)
         if prog is None:
             continue
         external = [d for d in prog.domain.predicates if d.external]

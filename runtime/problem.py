@@ -195,20 +195,29 @@ class PlanningProblem:
             f(starts, mode.obj_T, mode.obj_parent, a)[0])) for f, a in calls]
         pool.shutdown(wait=False)
 
-    def warm_up(self, rng: np.random.Generator) -> float:
+    def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so
         planning time is planning: every action schema's projector at the projection batch
         shape, the goal's, and the collision checker's kinematics at its padded batch sizes
         (every batch runs in chunks of at most one of them). Returns the seconds spent here,
-        waiting included (also in ``compile``)."""
+        waiting included (also in ``compile``). ``progress(phase, done, total, detail)`` hears
+        how many of the calls are done."""
         t = time.perf_counter()
         self.start_warm_up(rng)
         mode = self.initial
+        total = len(PAD_SIZES) + len(self._warming)
+        done = 0
         for n in PAD_SIZES:
+            if progress is not None:
+                progress("loading kernels", done, total, f"kinematics at {n}")
             self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
                                        attached=mode.held)
+            done += 1
         for fut in self._warming:
+            if progress is not None:
+                progress("loading kernels", done, total, "projectors")
             fut.result()
+            done += 1
         spent = time.perf_counter() - t
         self.timers.compile += spent
         return spent

@@ -14,25 +14,29 @@ from tmpc.runtime.planners import make_planner
 from tmpc.runtime.problem import PlanningProblem, register_run_kernels
 
 
-def open_input(path, on_compile=None) -> tuple[World, dict]:
+def open_input(path, on_compile=None, progress=None) -> tuple[World, dict]:
     """The world to plan in (:func:`~tmpc.compiler.export.open_for_run`: an artifact, or a
     configuration through the artifact cache) and the seconds spent: ``load``, and ``compile``
-    when the cache had no artifact of these sources."""
+    when the cache had no artifact of these sources. ``progress(phase, done, total, detail)``
+    hears the compile's phases."""
     t = time.perf_counter()
-    world, how = open_for_run(path, register_run_kernels, on_compile=on_compile)
+    world, how = open_for_run(path, register_run_kernels, on_compile=on_compile,
+                              progress=progress)
     spent = time.perf_counter() - t
     return world, {"kernels": how, ("compile" if how == "compiled" else "load"): spent}
 
 
 def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit: float = 120.0,
-                 overrides: dict | None = None, progress=None, on_solution=None):
+                 overrides: dict | None = None, progress=None, on_solution=None,
+                 setup_progress=None):
     """Load (``input_path``: a path or a loaded :class:`World`), check and plan; returns
     (problem, result, setup seconds). ``problem.setup`` has the split: ``problem`` (grounding,
     the collision world, the pre-checks), ``deserialize`` (exported kernels read) and
     ``first_call`` (their first calls: XLA compiles or loads them from its cache), plus
     ``load``/``compile`` and ``kernels`` from :func:`open_input` when given a path.
     ``on_solution(problem, result, setup)``: called by an anytime planner at every improved
-    solution."""
+    solution. ``setup_progress(phase, done, total, detail)`` hears the setup's phases (the
+    planner's own ``progress`` hears planning)."""
     t0 = time.perf_counter()
     split: dict = {}
     if isinstance(input_path, World):
@@ -40,6 +44,8 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     else:
         world, split = open_input(input_path)
     t = time.perf_counter()
+    if setup_progress is not None:
+        setup_progress("preparing the planner", 0, 0, "")
     problem = PlanningProblem(world)
     problem.start_warm_up(np.random.default_rng(seed))
     problem.check_goal_reachable()
@@ -48,10 +54,12 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     split["problem"] = time.perf_counter() - t
     bank = problem.compiled.bank.stats
     before = bank.seconds_deserialize
-    warm = problem.warm_up(np.random.default_rng(seed))
+    warm = problem.warm_up(np.random.default_rng(seed), setup_progress)
     split["deserialize"] = bank.seconds_deserialize - before
     split["first_call"] = warm - split["deserialize"]
     split["traced"] = list(bank.traced_keys)
+    if setup_progress is not None:
+        setup_progress("planning", 0, 0, "")
     problem.setup = split
     setup = time.perf_counter() - t0
     if on_solution is not None and hasattr(algo, "on_solution"):

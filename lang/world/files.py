@@ -4,6 +4,7 @@ URDF and mesh references, and the URDF's link and joint names (cached)."""
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
@@ -115,15 +116,48 @@ def resolve_mesh(r: Reader, opts: SceneOptions, raw: str, span: Span | None, whe
     fallbacks = list(opts.mesh_fallback_dirs)
     found, tried = find_first(raw, bases + fallbacks, by_name=fallbacks)
     if found is not None:
+        defect = mesh_defect(found) if opts.check_meshes else None
+        if defect is not None:
+            r.fail("E565", span, f"{where}: mesh file \"{raw}\" ({found}) cannot be loaded "
+                   f"({defect})", "use an STL, OBJ or PLY file with triangles")
         return found
     looked = tried_text(tried)
     if opts.strict_meshes:
         r.fail("E514", span, f"{where}: mesh file \"{raw}\" not found",
-               join_hints(looked, "point tmpc at the meshes (a mesh directory / fallback "
-                           "directories) or load with strict meshes off to go on without them"))
+               join_hints(looked, _MESH_WHERE))
     guess = next((t for t in tried if t.parent.is_dir()), tried[0])
     r.warn("W501", span, f"{where}: mesh file \"{raw}\" not found; kept as {guess}",
-           join_hints(looked, "collision checks need the mesh: put it there, or set "
-                      "TMPC_MESH_PATH to directories that hold it (searched by relative path "
-                      "and by file name)"))
+           join_hints(looked, _MESH_WHERE))
     return guess
+
+
+#: how to make a missing mesh found (the hint of E514 and W501)
+_MESH_WHERE = ("collision checks need the mesh: put it there, or set TMPC_MESH_PATH to "
+               "directories that hold it (searched by relative path and by file name)")
+_PLY_FACES = re.compile(rb"^element\s+face\s+(\d+)", re.MULTILINE)
+
+
+def mesh_defect(path: Path) -> str | None:
+    """Why the mesh file ``path`` cannot be loaded, from a cheap look at it (no mesh library):
+    unreadable, empty, or an STL/OBJ/PLY file without triangles. None: it looks loadable (other
+    formats are not looked into)."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        return str(exc.strerror or exc)
+    if not data.strip():
+        return "empty file"
+    kind = path.suffix.lower()
+    if kind == ".obj":
+        ok = re.search(rb"^\s*f\s", data, re.MULTILINE) is not None
+        return None if ok else "no faces: an OBJ file needs `f` lines"
+    if kind == ".stl":
+        if data[:5].lower() == b"solid" and b"facet" in data:
+            return None                                   # ASCII STL with facets
+        n = int.from_bytes(data[80:84], "little") if len(data) >= 84 else 0
+        return None if n > 0 and len(data) >= 84 + 50 * n else "not an STL file with triangles"
+    if kind == ".ply":
+        m = _PLY_FACES.search(data[:4096])
+        return None if data[:3] == b"ply" and m and int(m.group(1)) > 0 else \
+            "not a PLY file with faces"
+    return None

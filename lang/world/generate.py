@@ -138,7 +138,8 @@ def tabletop_scene() -> dict:
              "support": {"lower": [-0.25, -0.45, 0.2], "upper": [0.25, 0.45, 0.3]}},
             {"name": "tray", "pose": _pose(0.45, -0.3, 0.405),
              "shape": {"type": "box", "half_extents": [0.1, 0.1, 0.005]},
-             "support": {"lower": [-0.08, -0.08, 0.0], "upper": [0.08, 0.08, 0.08]}},
+             # the floor of the support region is the tray's top (its half height up)
+             "support": {"lower": [-0.08, -0.08, 0.005], "upper": [0.08, 0.08, 0.085]}},
             {"name": "red_cube", "pose": _pose(0.5, 0.15, 0.425), "movable": True,
              "shape": {"type": "box", "half_extents": [0.025, 0.025, 0.025]}},
             {"name": "blue_cube", "pose": _pose(0.6, 0.25, 0.425), "movable": True,

@@ -115,13 +115,14 @@ def _looks_tmit(v: dict) -> bool:
 
 def load_scene(path: str | Path, fmt: str | None = None, mesh_dir: str | Path | None = None, *,
                strict_meshes: bool = True, mesh_fallback_dirs: Iterable[str | Path] = (),
-               report: LoadReport | None = None) -> Scene:
+               report: LoadReport | None = None, check_meshes: bool = False) -> Scene:
     """Read, check and convert a scene file. ``fmt``: a key of :data:`SCENE_LOADERS` (detected
-    when None). ``mesh_dir``: planet's ``objdir``. Raises SceneError for any problem in the
-    file or the files it names; warnings go to ``report``."""
+    when None). ``mesh_dir``: planet's ``objdir``. ``check_meshes``: read the meshes found too
+    (:class:`SceneOptions`). Raises SceneError for any problem in the file or the files it
+    names; warnings go to ``report``."""
     report = report if report is not None else LoadReport()
     opts = SceneOptions(Path(os.path.abspath(mesh_dir)) if mesh_dir else None, strict_meshes,
-                        tuple(Path(os.path.abspath(d)) for d in mesh_fallback_dirs))
+                        tuple(Path(os.path.abspath(d)) for d in mesh_fallback_dirs), check_meshes)
     source = read_source(path, "scene")
     report.files[source.path] = source
     if fmt is None:

@@ -33,11 +33,15 @@ class LoadReport:
 class SceneOptions:
     """How to find meshes. ``mesh_dir``: planet's ``objdir`` (XML ``<geom>`` paths are relative
     to it). ``mesh_fallback_dirs``: more places to look for a mesh, by its relative path and by
-    its file name. ``strict_meshes=False`` turns a missing mesh into a warning (W501)."""
+    its file name. ``strict_meshes=False`` turns a missing mesh into a warning (W501).
+    ``check_meshes``: also read each mesh file found, and fail (E565) when it cannot be read or,
+    for STL, OBJ and PLY, holds no triangles (what ``tmpc check`` does; a run finds out when it
+    builds its collision world)."""
 
     mesh_dir: Path | None = None
     strict_meshes: bool = True
     mesh_fallback_dirs: tuple[Path, ...] = ()
+    check_meshes: bool = False
 
 
 class Stop(Exception):

@@ -5,13 +5,17 @@ from __future__ import annotations
 
 import sys
 
-from tmpc.lang.program import check_paths
+from tmpc.lang.diagnostics import TmpcError
+from tmpc.lang.lua import load_lua_predicates, lua_limits
+from tmpc.lang.program import check_paths, config_program
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_OK
 from tmpc.runtime.cli.output import print_diagnostics, summary
 
 
 def run_check(args) -> int:
     report = check_paths(args.files)
+    if report.ok:
+        report.diagnostics.extend(_traced_lua(report))
     if args.static and report.ok:
         # SAT/relaxation checks (W610-W613): opt-in, because they ground the problem and load
         # Z3, and plain `tmpc check` stays light enough for an editor on every keystroke; so
@@ -36,6 +40,30 @@ def run_check(args) -> int:
         else:
             sys.stderr.write(f"check failed: {counts}\n")
     return EXIT_OK if report.ok else EXIT_ERROR
+
+
+def _traced_lua(report) -> list:
+    """What tracing each run configuration's Lua predicates finds, as `run` and `compile` trace
+    them before planning: a predicate that runs past the sandbox's limits (E704), reads an unknown
+    field (E709), or falls back to direct evaluation (W700). The tracer is the compiler's (it
+    imports numpy), so it is imported here, only when a configuration has Lua predicates."""
+    out = []
+    for config in report.workspace.configs:
+        prog = config_program(config, report.programs)
+        decls = {d.name.text: d for d in prog.domain.predicates if d.external} if prog else {}
+        if not decls or config.semantics is None:
+            continue
+        from tmpc.compiler.lua_trace import trace_module
+        try:
+            module = load_lua_predicates(config.semantics, limits=lua_limits(config))
+            result = trace_module(module, decls, strict=False)
+        except TmpcError as exc:
+            report.workspace.files.update(exc.files)
+            out.extend(exc.diagnostics)
+            continue
+        report.workspace.files.update(module.files)
+        out.extend(result.diagnostics)
+    return out
 
 
 def _program_name(p) -> str:

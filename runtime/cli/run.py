@@ -29,7 +29,9 @@ def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
     _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815"),
                     (None if args.output else _configured_output(args.input), "E828")])
-    world, opened = open_input(args.input, on_compile=None if args.quiet else _compiling)
+    phases = None if args.quiet else _SetupProgress(sys.stderr, sys.stderr.isatty())
+    world, opened = open_input(args.input, on_compile=None if phases is None else phases.start,
+                               progress=phases)
     # the command line wins; else the configuration's time limit and output (planet's TOML
     # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
     config = world.config
@@ -43,7 +45,10 @@ def run_run(args, imports: float = 0.0) -> int:
     progress = None if args.quiet or not sys.stderr.isatty() else _Progress(time_limit)
     on_solution = _anytime_writer(args, output, opened) if output else None
     problem, result, setup = plan_problem(world, args.planner, args.seed, time_limit,
-                                          planner_overrides(args), progress, on_solution)
+                                          planner_overrides(args), progress, on_solution,
+                                          setup_progress=phases)
+    if phases is not None:
+        phases.done()
     split = {"imports": imports, **opened, **problem.setup}
     setup += opened.get("load", 0.0) + opened.get("compile", 0.0)
     t = time.perf_counter()
@@ -116,11 +121,6 @@ def planner_overrides(args) -> dict:
             "until_converged": flag("until_converged")}
 
 
-def _compiling(path) -> None:
-    sys.stderr.write("compiling the problem into the artifact cache (its first run; later runs "
-                     f"of the same files start from {path.name})...\n")
-
-
 def _report_setup(split: dict, result) -> None:
     """`-v`: where the time went, in order."""
     kernels = {"artifact": "from the artifact", "cache": "from the artifact cache (no compile)",
@@ -151,6 +151,41 @@ def _report(doc, result, setup: float) -> None:
     t = s["time"]
     w(f"nodes {s['nodes']}, modes {s['modes']}, transitions {s['transitions']}; time: "
       + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()) + "\n")
+
+
+class _SetupProgress:
+    """Setup's phases on stderr while a first run compiles (20-45 s of silence otherwise): a live
+    line on a terminal, else a plain line per phase and at most one every 5 s within one. Silent
+    until the compile starts, so a run from the artifact cache prints nothing more."""
+
+    def __init__(self, stream, tty: bool):
+        self.stream, self.tty, self.active = stream, tty, False
+        self.phase, self.last, self.t0 = None, 0.0, time.perf_counter()
+
+    def start(self, artifact) -> None:
+        """``on_compile``: the compile begins (the artifact cache has no entry)."""
+        self.stream.write("compiling the problem into the artifact cache (its first run; later "
+                          f"runs of the same files start from {artifact.name})...\n")
+        self.active, self.t0 = True, time.perf_counter()
+
+    def __call__(self, phase: str, done: int = 0, total: int = 0, detail: str = "") -> None:
+        if not self.active:
+            return
+        now = time.perf_counter()
+        if phase == self.phase and now - self.last < (0.1 if self.tty else 5.0):
+            return
+        self.phase, self.last = phase, now
+        text = (f"  {now - self.t0:5.1f} s  {phase}" + (f" {done}/{total}" if total else "")
+                + (f" ({detail})" if detail else "") + "...")
+        self.stream.write(f"\r{text}\033[K" if self.tty else text + "\n")
+        self.stream.flush()
+
+    def done(self) -> None:
+        """Setup is over: the live line goes (the planner's own line takes its place)."""
+        if self.active and self.tty:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+        self.active = False
 
 
 class _Progress:

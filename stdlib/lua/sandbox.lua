@@ -159,6 +159,24 @@ string.rep = function(s, n, sep)
   return srep(s, n, sep)
 end
 
+-- table.sort sorts inside one C call, where the count hook fires only while a Lua comparator
+-- runs: each call is charged n*log2(n) instructions of the budget up front, and looks at the
+-- clock, so one huge sort, or a loop of big ones, ends with E704 at its line (before, a loop
+-- of sorts ran for minutes between two looks at the clock).
+local tsort, mlog = table.sort, math.log
+table.sort = function(t, comp)
+  if type(t) == "table" then
+    local n = rawlen(t)
+    if n > 1 then used = used + n * (mlog(n, 2) + 1) end
+    if clock() - started > seconds then timed_out = true end
+    if used > budget or timed_out then
+      sethook(hook, "", 1)
+      error(LIMIT, 0)
+    end
+  end
+  return tsort(t, comp)
+end
+
 -- A finalizer would run user code at some later garbage collection, outside any budget.
 local function user_setmetatable(t, mt)
   if type(mt) == "table" and rawget(mt, "__gc") ~= nil then deny("a __gc metamethod") end

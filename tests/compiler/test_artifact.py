@@ -67,7 +67,8 @@ def test_manifest_and_members(artifact):
     assert manifest["format"] == "tmpc-artifact/1"
     kernels = manifest["bank"]["kernels"]
     assert {k for k in kernels if k.startswith("cond/")} == {
-        "cond/predicate/reach", "cond/predicate/over", "cond/action/pick", "cond/action/place"}
+        "cond/predicate/reach", "cond/predicate/over", "cond/predicate/resting",
+        "cond/action/pick", "cond/action/place"}
     assert {"fk", "fk/frames", "proj/action/pick", "proj/action/place", "grad/predicate/reach",
             "proj/predicate/over"} <= set(kernels)
     assert all(member in names for member in kernels.values()) and not manifest["bank"]["skipped"]
@@ -253,3 +254,23 @@ def test_fuzzed_artifacts_give_e590_or_load(artifact, tmp_path, monkeypatch):
             assert exc.diagnostics[0].code in ("E590",), exc.diagnostics[0]
             outcomes["E590"] += 1
     assert outcomes["E590"] > 100, outcomes
+
+
+def test_export_reports_each_kernel_as_it_goes():
+    """A first run compiles for 20-45 s: the export tells its progress kernel by kernel (L 3),
+    with names a user reads (`projector pick`), i/n in order."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.export import kernel_label
+    from tmpc.runtime.problem import register_run_kernels
+    world = open_world(EXAMPLES / "tabletop" / "tabletop.toml")     # its own, not the fixture's
+    compiled = compile_world(world)
+    compiled.register_kernels(run_only=True)
+    register_run_kernels(world, compiled)
+    seen = []
+    compiled.bank.export(lambda key, spec, make: b"stored",
+                         lambda i, n, key: seen.append((i, n, kernel_label(key))))
+    n = len(compiled.bank.keys)
+    assert n > 5 and [(i, m) for i, m, _ in seen] == [(i, n) for i in range(1, n + 1)]
+    labels = {label for _, _, label in seen}
+    assert {"projector pick", "projector place", "condition resting", "kinematics"} <= labels
+    assert kernel_label("proj/action/pick@16") == "projector pick"

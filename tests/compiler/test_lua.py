@@ -484,6 +484,24 @@ def test_untraceable_lua_predicate_points_at_its_function(untraceable_sort):
     assert new[bad.span.start:].startswith("function at(")
 
 
+def test_table_sort_is_charged_to_the_budget(tmp_path):
+    """`table.sort` runs in one C call the instruction hook cannot interrupt (L 4): a loop of
+    big sorts took minutes between two looks at the clock. Each sort now costs n*log2(n) of the
+    budget, so the loop ends at once with E704 at the sort's line."""
+    import time
+    src = ("local t = {}\nfor i = 1, 3e5 do t[i] = (i * 7919) % 100003 end\n"
+           "for k = 1, 1e6 do\n  table.sort(t)\nend\n")
+    t = time.perf_counter()
+    assert raises(src, tmp_path, limits=LuaLimits(seconds=2.0)) == ("E704", 4)
+    assert time.perf_counter() - t < 3.0
+    # a sort within the budget still sorts, with a comparator too
+    path = tmp_path / "ok.lua"
+    path.write_text("local t = {3, 1, 2}\ntable.sort(t, function(a, b) return a > b end)\n"
+                    "assert(t[1] == 3 and t[3] == 1)\nlocal u = {3, 1, 2}\ntable.sort(u)\n"
+                    "assert(u[1] == 1)\nfunction f(a) return true end\n")
+    assert load_lua_predicates(path).names == ("f",)
+
+
 def test_work_inside_c_functions_is_bounded(tmp_path):
     """`string.rep` in a loop costs few instructions and hours of time (L 1): a CPU-time budget
     per call and a cap on what one string.rep may build stop it, at the line."""

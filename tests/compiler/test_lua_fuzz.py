@@ -26,6 +26,7 @@ HOSTILE = [
     "local t = {} for i = 1, 1e8 do t[i] = i end",
     "local t = {} for i = 1, 2e5 do t[i] = (i * 7919) % 100003 end table.sort(t)",
     "local t = {} for i = 1, 2e4 do t[i] = -i end table.sort(t, function(a, b) return a < b end)",
+    "local t = {} for i = 1, 2e5 do t[i] = i % 977 end for k = 1, 1e6 do table.sort(t) end",
     "local t = {} for i = 1, 3e5 do t[i] = tostring(i) end local s = table.concat(t):rep(100)",
     "local function f() return f() end f()",
     "local function g() return 1 + g() end g()",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -245,18 +246,38 @@ def test_check_reads_an_allowed_collision_csv_as_one(tmp_path):
 
 def test_check_honours_the_mesh_path_as_run_does(tmp_path):
     """tmit-star's repository lacks its .obj meshes: `check` looked only beside the scene
-    (W501) where `run` also searched $TMPC_MESH_PATH."""
+    where `run` also searched $TMPC_MESH_PATH. A mesh a run cannot find is an error (E514, L 4:
+    it was warning W501, and the run then failed with E565)."""
     import re
 
     from tests.support import LEGACY
     spec = LEGACY / "tmit-star" / "bin-picking" / "problems" / "pb_1.json"
     r = run("check", str(spec))
     missing = sorted(set(re.findall(r'mesh file "models/([^"]+)" not found', r.stderr)))
-    assert r.returncode == 0 and missing, r.stderr
+    assert r.returncode == 1 and missing and "error[E514]" in r.stderr, r.stderr
+    assert "TMPC_MESH_PATH" in r.stderr and "W501" not in r.stderr
     for name in missing:
         (tmp_path / name).write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     r = run("check", str(spec), env={**os.environ, "TMPC_MESH_PATH": str(tmp_path)})
     assert r.returncode == 0 and "W501" not in r.stderr, r.stderr
+
+
+def test_check_fails_on_a_mesh_a_run_cannot_load(tmp_path):
+    """A run configuration whose mesh is missing or holds no triangles fails `check` (E514,
+    E565 at the scene's line, with the hint a user can act on): it was a warning, or nothing,
+    and the run then failed (L 4)."""
+    ex = tmp_path / "ps"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    block = ex / "meshes" / "block.obj"
+    block.write_text("# an export that went wrong\nv 0 0 0\n")
+    r = run("check", str(ex / "sort.toml"))
+    assert r.returncode == 1 and "scene.xml:45:13: error[E565]" in r.stderr, r.stderr
+    assert "no faces" in r.stderr and "help: use an STL, OBJ or PLY file" in r.stderr
+    block.unlink()
+    r = run("check", str(ex / "sort.toml"))
+    assert r.returncode == 1 and "scene.xml:45:13: error[E514]" in r.stderr, r.stderr
+    assert "help: looked for" in r.stderr and "TMPC_MESH_PATH" in r.stderr
+    assert run("check", str(EXAMPLES / "planet-sort" / "sort.toml")).returncode == 0
 
 
 def test_the_clutter_generator_writes_a_run_manifest(tmp_path):

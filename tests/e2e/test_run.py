@@ -32,6 +32,8 @@ def test_plans_validate_independently(clutter_problem_1, tmp_path, seed):
     assert result.status == "solved"
     doc, report = _validate(clutter_problem_1, result, tmp_path, seed)
     assert report.valid, report.text() if hasattr(report, "text") else report
+    # the stick rests on table3 when released (L 9: `placed` let it go 7 cm up, tilted 11°)
+    assert report.warnings == [], [w.message for w in report.warnings]
     # the plan moves the stick to table3 with one gripper and back to empty hands
     assert [a.split()[0] for a in doc["actions"]] == ["(pickup", "(putdown"]
     assert doc["actions"][1].split()[2] == "table3"
@@ -209,8 +211,11 @@ def test_geometric_goal_is_projected_and_validated(tmp_path):
     r = _tmpc("run", ex / "tabletop.toml", "--seed", "1", "-q", "-o", out)
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
-    assert doc["actions"] == ["(pick panda_hand_tcp red_cube bench)",
-                              "(place panda_hand_tcp red_cube tray)"]
+    # the red cube ends in the tray (with `resting` the first plan this seed finds may put it
+    # down on the bench on the way, so the exact action list is not pinned)
+    assert doc["actions"][0] == "(pick panda_hand_tcp red_cube bench)"
+    assert [a for a in doc["actions"] if "red_cube" in a][-1] == \
+        "(place panda_hand_tcp red_cube tray)"
     r = _tmpc("validate", ex / "tabletop.toml", out)
     assert r.returncode == 0, r.stdout + r.stderr
     # the robot moved on after the place: to the blue cube, which is not where it placed
@@ -224,3 +229,54 @@ def test_unwritable_plan_file_is_a_clear_error(tmp_path):
         write_json_atomic(tmp_path / "no-such-folder" / "plan.json", {"states": []})
     assert exc.value.diagnostics[0].code == "E828"
     assert not (tmp_path / "no-such-folder").exists()
+
+
+def test_setup_progress_lines_on_a_terminal_and_in_a_log():
+    """The setup's phases while a first run compiles (L 3): a live line on a terminal, plain
+    lines in a log (one per phase, at most one every 5 s within one), nothing before the
+    compile starts (a run from the artifact cache) and nothing after `done`."""
+    import io
+
+    from tmpc.runtime.cli.run import _SetupProgress
+    log = io.StringIO()
+    p = _SetupProgress(log, tty=False)
+    p("compiling kernels", 1, 3, "condition pick")
+    assert log.getvalue() == ""                               # not compiling: silent
+    p.start(Path("/cache/runs/abc.tmpa"))
+    for i in (1, 2, 3):
+        p("compiling kernels", i, 3, "projector pick")
+    p("preparing the planner")
+    p.done()
+    p("planning")
+    lines = log.getvalue().splitlines()
+    assert lines[0].startswith("compiling the problem into the artifact cache") and len(lines) == 3
+    assert lines[1].endswith("compiling kernels 1/3 (projector pick)...")
+    assert lines[2].endswith("preparing the planner...") and "\r" not in log.getvalue()
+    tty = io.StringIO()
+    p = _SetupProgress(tty, tty=True)
+    p.start(Path("/cache/runs/abc.tmpa"))
+    p("compiling kernels", 1, 3, "condition pick")
+    p.done()
+    out = tty.getvalue()
+    assert "\rcompiling kernels" not in out and "\r  " in out and "compiling kernels 1/3" in out
+    assert out.endswith("\r\033[K")                            # the live line is cleared
+
+
+@pytest.mark.slow
+def test_a_cold_run_shows_its_setup_phases(tmp_path):
+    """End to end, in an empty cache: a cold `tmpc run` writes its phases to a non-terminal
+    stderr as plain lines; `-q` writes none."""
+    import os
+    import subprocess
+    import sys
+    env = {**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")}
+    cmd = [sys.executable, "-m", "tmpc.runtime.cli", "run", str(EXAMPLES / "tabletop" /
+                                                                  "tabletop.toml")]
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr
+    for phase in ("compiling the program...", "compiling kernels 1/", "preparing the planner...",
+                  "loading kernels", "planning..."):
+        assert phase in r.stderr, r.stderr
+    shutil.rmtree(tmp_path / "cache" / "runs")
+    q = subprocess.run(cmd + ["-q"], capture_output=True, text=True, env=env, timeout=600)
+    assert q.returncode == 0 and "compiling" not in q.stderr and "..." not in q.stderr, q.stderr

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -346,7 +347,7 @@ def test_lua_limits_come_from_the_manifest(tmp_path):
     lua.write_text('for i = 1, 3e6 do local s = ("x"):rep(1e6) end\n' + lua.read_text())
     (ex / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
                                  'scene = "scene.xml"\nsemantics = "sort.lua"\n'
-                                 "[planner]\nlua_seconds = 0.5\n")
+                                 'mesh_dir = "meshes"\n[planner]\nlua_seconds = 0.5\n')
     r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "run.toml")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 1 and "error[E704]" in r.stderr and "time limit (0.5 s" in r.stderr
@@ -378,3 +379,29 @@ def test_lua_limits_from_the_command_line_for_a_legacy_configuration(tmp_path, c
     with pytest.raises(SystemExit) as exc:
         main(["check", str(ex / "sort.toml"), "--lua-seconds", "-1"])
     assert exc.value.code == 2
+
+
+def test_check_traces_the_lua_predicates_as_run_does(tmp_path, capsys):
+    """`tmpc check` of a run configuration finds what tracing its Lua predicates finds (L 4):
+    an unknown field (E709) and a predicate that never returns (E704), each at its Lua line
+    with a hint; before, only `run` and `compile` did."""
+    from tmpc.runtime.cli.main import main
+    ex = tmp_path / "ps"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    lua = ex / "sort.lua"
+    text = lua.read_text()
+    text = text.replace("  local d2 = (m.px - x.px)", "  local w = x.mass\n  local d2 = (m.px - x.px)")
+    text = text.replace("  local r = s.sssp.region", "  while true do end\n  local r = s.sssp.region")
+    lua.write_text(text)
+    (ex / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = "problem.pddl"\n'
+                                 'scene = "scene.xml"\nsemantics = "sort.lua"\n'
+                                 'mesh_dir = "meshes"\n[planner]\nlua_instructions = 100000\n')
+    lines = text.splitlines()
+    capsys.readouterr()
+    assert main(["check", str(ex / "run.toml"), "--format", "json"]) == 1
+    got = json.loads(capsys.readouterr().out)
+    found = {d["code"]: d for d in got}
+    assert set(found) == {"E709", "E704"}, got
+    assert lines[found["E709"]["span"]["line"] - 1].strip() == "local w = x.mass"
+    assert lines[found["E704"]["span"]["line"] - 1].strip() == "while true do end"
+    assert all(d["span"]["path"].endswith("sort.lua") and d["hint"] for d in found.values()), got

@@ -14,6 +14,8 @@ GEOMETRY_USES = {
     "in-box": "(in-box (position ?a) (support-region ?b))",
     "on-support": "(on-support ?a ?b)",
     "over-support": "(over-support ?a ?b 0.3)",
+    "support-gap": "(<= (support-gap ?a ?b) 0.01)",
+    "rests-on": "(rests-on ?a ?b 0.07)",
     "aligned": "(aligned (z-axis ?a) (x-axis ?b) 0.1)",
     "z-aligned": "(z-aligned ?a ?b 0.1)",
     "upright": "(upright ?a 0.05)",

@@ -46,3 +46,37 @@ def test_mesh_arrays_are_read_back_without_the_loader(tmp_path, monkeypatch):
     mesh.write_bytes(b"solid nothing\nendsolid nothing\n")
     monkeypatch.setattr(geometry, "_MESHES", {})
     raises("E565", geometry.load_mesh, mesh, (2.0, 1.0, 1.0), "cube")
+
+
+def test_a_missing_mesh_names_the_mesh_path_in_its_hint(tmp_path, monkeypatch):
+    """At run time a missing mesh is E565 with the hint a user can act on ($TMPC_MESH_PATH), not
+    "use an STL/OBJ/PLY file with triangles" (L 4)."""
+    from tmpc.runtime.collision import geometry
+    monkeypatch.setattr(geometry, "_MESHES", {})
+    d, _ = raises("E565", geometry.load_mesh, tmp_path / "gone.obj", (1.0, 1.0, 1.0), "block")
+    assert "no such file" in d.message and "TMPC_MESH_PATH" in d.hint
+
+
+@pytest.mark.parametrize("name, text", [
+    ("cube.stl", None), ("cube.obj", None), ("cube.ply", None),
+    ("empty.obj", ""), ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"),
+    ("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+    ("words.stl", "not a mesh"), ("hollow.stl", "solid nothing\nendsolid nothing\n"),
+    ("short.ply", "ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\nend_header\n"),
+])
+def test_checks_look_at_a_mesh_as_the_loader_reads_it(tmp_path, name, text):
+    """`tmpc check`'s cheap look at a mesh (lang, no mesh library) fails exactly the files
+    trimesh cannot load with triangles, which the run's E565 rejects."""
+    import trimesh
+
+    from tmpc.lang.world.files import mesh_defect
+    path = tmp_path / name
+    if text is None:
+        trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(path)
+    else:
+        path.write_text(text)
+    try:
+        loads = len(trimesh.load(str(path), force="mesh").faces) > 0
+    except Exception:
+        loads = False
+    assert (mesh_defect(path) is None) == loads

@@ -116,8 +116,8 @@ def test_a_second_request_reuses_the_world_and_an_edit_reloads_it(tabletop_copy)
 def test_static_checks_are_what_check_static_adds(tabletop_copy, capsys):
     domain = tabletop_copy / "domain.pddl"
     domain.write_text(domain.read_text().replace(
-        ":precondition (and (holding ?g ?c) (over ?g ?s))",
-        ":precondition (and (holding ?g ?c) (not (holding ?g ?c)) (over ?g ?s))").replace(
+        ":precondition (and (holding ?g ?c) (over ?g ?s)",
+        ":precondition (and (holding ?g ?c) (not (holding ?g ?c)) (over ?g ?s)").replace(
         "(near ?g ?c 0.02)", "(near ?g ?c 0.02) (> (z (position ?c)) 5.0)"))
     config = tabletop_copy / "tabletop.toml"
     got = work.static_checks(config, budget=30.0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import json
+import shutil
 import subprocess
 import sys
 
@@ -51,9 +52,9 @@ def motion_state(s, **joints):
 def test_tabletop_fixture_is_valid(tabletop, plan):
     rep = validate(tabletop, plan)
     assert rep.valid, rep.text()
-    assert (rep.states, rep.actions) == (9, 4)
+    assert (rep.states, rep.actions) == (10, 4)
     assert rep.motion_checks > 20
-    assert rep.summary().startswith("valid: 9 states, 4 actions, ")
+    assert rep.summary().startswith("valid: 10 states, 4 actions, ")
 
 
 def test_clutter_pr2_fixture_is_valid(clutter_world):
@@ -147,7 +148,7 @@ def test_goal_not_reached(tabletop, plan):
 def test_plan_ending_with_an_action(tabletop, plan):
     del plan["states"][-1]
     rep = validate(tabletop, plan)
-    assert "state 7: the plan ends with action (place panda_hand_tcp blue_cube tray): its " \
+    assert "state 8: the plan ends with action (place panda_hand_tcp blue_cube tray): its " \
            "effects need a following state (same configuration, the new mode)" in rep.text()
 
 
@@ -293,6 +294,12 @@ return {
     d = m.max(d, m.max(s.py + s.y_low - g.py, g.py - (s.py + s.y_high)))
     return m.max(d, m.max(s.pz + s.z_low - g.pz, g.pz - (s.pz + s.z_high + 0.3)))
   end,
+  ['resting'] = function(c, s)
+    local d = m.max(s.px + s.x_low - c.px, c.px - (s.px + s.x_high))
+    d = m.max(d, m.max(s.py + s.y_low - c.py, c.py - (s.py + s.y_high)))
+    local gap = c.pz - 0.025 - (s.pz + s.z_low)
+    return m.max(d, m.max(-gap, gap - 0.008))
+  end,
 }
 """
 
@@ -308,7 +315,8 @@ def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
     domain = (EXAMPLES / "tabletop" / "domain.pddl").read_text()
     head, rest = domain.split("    ; the tool centre point is at the cube", 1)
     domain = head + "    (reach ?g - gripper ?c - cube :geometric)\n" \
-        "    (over ?g - gripper ?s - surface :geometric))\n" + rest[rest.index("  (:action"):]
+        "    (over ?g - gripper ?s - surface :geometric)\n" \
+        "    (resting ?c - cube ?s - surface :geometric))\n" + rest[rest.index("  (:action"):]
     (tmp_path / "domain.pddl").write_text(domain)
     (tmp_path / "preds.lua").write_text(LUA)
     (tmp_path / "run.toml").write_text('[problem]\ndomain = "domain.pddl"\nproblem = '
@@ -317,7 +325,7 @@ def test_lua_predicates_are_evaluated_directly(tmp_path, plan):
     v = Validator(open_world(tmp_path / "run.toml"))
     rep = validate(v, plan)
     assert rep.valid, rep.text()
-    assert rep.notes == ["Lua predicates evaluated directly: over, reach"]
+    assert rep.notes == ["Lua predicates evaluated directly: over, reach, resting"]
     plan["states"][1]["action"] = plan["actions"][0] = "(pick panda_hand_tcp blue_cube bench)"
     pre = [x.text() for x in validate(v, plan).violations if x.kind == "precondition"]
     assert len(pre) == 1 and pre[0].startswith("state 1: precondition (reach panda_hand_tcp "
@@ -372,7 +380,7 @@ def cli(*args):
 def test_cli_valid_invalid_json_and_malformed(tmp_path, plan):
     ok = cli(TABLETOP, PLANS / "tabletop.json")
     assert ok.returncode == 0, ok.stderr
-    assert ok.stdout.startswith("valid: 9 states, 4 actions, ")
+    assert ok.stdout.startswith("valid: 10 states, 4 actions, ")
     del plan["states"][5:]
     plan["actions"] = plan["actions"][:2]
     bad = tmp_path / "short.json"
@@ -439,10 +447,11 @@ def test_a_plan_for_another_problem_is_said_so_first(tmp_path):
 
 # ---- plans of the other planners (docs/validate.md "Conventions") -------------------------------
 
-def _legacy(plan, flavour: str, drop=(2, 4, 6)) -> list[dict]:
+def _legacy(plan, flavour: str, drop=(2, 4, 7)) -> list[dict]:
     """The tabletop plan as planet or tmit-star write theirs: bare states, the planner's action
     spelling, and no separate state after an action (the next one is elsewhere in the new
-    mode)."""
+    mode): the fixture's actions are at states 1, 3, 6 and 8, each followed by its new mode's
+    state (5 is a waypoint), and the last is kept."""
     out = []
     for i, s in enumerate(plan["states"]):
         if i in drop:
@@ -468,14 +477,22 @@ def test_planet_plans_move_on_from_the_action_state(tabletop, plan):
     assert [v.kind for v in got.violations].count("configuration") == 3
 
 
-def test_tmit_star_plans_snap_grasped_objects_onto_the_frame(tabletop, plan):
+def test_tmit_star_plans_snap_grasped_objects_onto_the_frame(tabletop, plan, tmp_path):
     """tmit-star puts a grasped object on the gripper frame itself. Written that way, the plan
     is valid under tmit-star's conventions (at its tolerance, 0.029 m: the snap pushes the
-    cubes 3-13 mm into the bench and the fingers); the same poses are a violation under planet's."""
+    cubes 3-13 mm into the bench and the fingers); the same poses are a violation under planet's.
+    The snap turns a cube upside down, so the example's `resting` (upright, on the tray) cannot
+    hold: here `place` asks for the hand over the tray only, as tmit-star's own `over` did."""
+    import shutil
+
     from scipy.spatial.transform import Rotation
 
+    from tmpc.lang.inputs import load_world
     from tmpc.runtime.validate.core import Validator
-    v = Validator(tabletop.world, tolerance=0.029)
+    shutil.copytree(TABLETOP.parent, tmp_path / "tabletop")
+    domain = tmp_path / "tabletop" / "domain.pddl"
+    domain.write_text(domain.read_text().replace("(over ?g ?s) (resting ?c ?s))", "(over ?g ?s))"))
+    v = Validator(load_world(tmp_path / "tabletop" / "tabletop.toml"), tolerance=0.029)
 
     def tcp(s):
         values = dict(v.defaults, **s["joints"])
@@ -486,8 +503,8 @@ def test_tmit_star_plans_snap_grasped_objects_onto_the_frame(tabletop, plan):
                 "rotation": Rotation.from_matrix(T[:3, :3]).as_quat().tolist()}
 
     st = plan["states"]
-    for obj, grasp, place, after in (("red_cube", 1, 3, (4, 5, 6, 7, 8)),
-                                     ("blue_cube", 5, 7, (8,))):
+    for obj, grasp, place, after in (("red_cube", 1, 3, (4, 5, 6, 7, 8, 9)),
+                                     ("blue_cube", 6, 8, (9,))):
         snapped = tcp(st[place])
         # the snap moves the object: the test means something
         assert np.linalg.norm(tcp(st[grasp])[:3, 3]
@@ -527,8 +544,8 @@ def _at(x, y, z, roll=0.0):
 
 
 def test_a_released_object_must_rest_on_a_support(tabletop):
-    # the tray's support region starts at z 0.405 (its top is 0.41); a cube's half height 0.025
-    floor = 0.405
+    # the tray's support region starts at its top, z 0.41; a cube's half height 0.025
+    floor = 0.41
     assert _released(tabletop, "red_cube", _at(0.45, -0.3, floor + 0.025 + 0.008)) == []
     high = _released(tabletop, "red_cube", _at(0.45, -0.3, floor + 0.025 + 0.10))
     assert [(w.kind, w.details["support"], w.details["gap"]) for w in high] == \
@@ -542,20 +559,40 @@ def test_a_released_object_must_rest_on_a_support(tabletop):
     assert _released(tabletop, "red_cube", _at(0.6, 0.25, 0.45 + 0.025 + 0.002)) == []
 
 
-def test_floating_releases_warn_and_strict_makes_them_errors(tabletop_world, tmp_path, capsys):
-    """The tabletop planner releases cubes in the air (its `over` allows 15 cm): validate says
-    so (W830) and stays valid; --strict makes the plan invalid (exit 1)."""
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_tabletop_example_puts_its_cubes_down(tabletop_world, tmp_path, seed):
+    """The bundled tabletop example's plans release each cube resting in the tray (L 9): its
+    `place` needs `resting` (the stdlib's `rests-on`); `over` alone let go 16-18 cm up."""
     from tmpc.runtime.cli.main import main
     from tmpc.runtime.validate import validate_plan
     plan = tmp_path / "plan.json"
-    capsys.readouterr()
-    assert main(["run", str(TABLETOP), "--seed", "0", "-q", "-o", str(plan)]) == 0
+    assert main(["run", str(TABLETOP), "--seed", str(seed), "-q", "-o", str(plan)]) == 0
     rep = validate_plan(tabletop_world, str(plan))
+    assert rep.valid and rep.warnings == [], [w.message for w in rep.warnings]
+
+
+@pytest.mark.slow
+def test_floating_releases_warn_and_strict_makes_them_errors(tmp_path, capsys):
+    """A tabletop domain whose `place` asks only for the hand over the tray (as the example's
+    did) releases cubes in the air: validate says so (W830) and stays valid; --strict makes the
+    plan invalid (exit 1). Slow: the changed domain compiles from scratch."""
+    from tmpc.lang.inputs import load_world
+    from tmpc.runtime.cli.main import main
+    from tmpc.runtime.validate import validate_plan
+    shutil.copytree(TABLETOP.parent, tmp_path / "tabletop")
+    domain = tmp_path / "tabletop" / "domain.pddl"
+    domain.write_text(domain.read_text().replace("(over ?g ?s) (resting ?c ?s))", "(over ?g ?s))"))
+    config = tmp_path / "tabletop" / "tabletop.toml"
+    world = load_world(config)
+    plan = tmp_path / "plan.json"
+    capsys.readouterr()
+    assert main(["run", str(config), "--seed", "0", "-q", "-o", str(plan)]) == 0
+    rep = validate_plan(world, str(plan))
     assert rep.valid and len(rep.warnings) == 2
     assert all(w.details["gap"] > 0.05 for w in rep.warnings)
     capsys.readouterr()
-    assert main(["validate", str(TABLETOP), str(plan)]) == 0
+    assert main(["validate", str(config), str(plan)]) == 0
     assert capsys.readouterr().out.count("warning[W830]: state ") == 2
-    assert main(["validate", str(TABLETOP), str(plan), "--strict", "--json"]) == 1
+    assert main(["validate", str(config), str(plan), "--strict", "--json"]) == 1
     doc = json.loads(capsys.readouterr().out)
     assert not doc["valid"] and [v["kind"] for v in doc["violations"]] == ["support"] * 2

@@ -168,8 +168,8 @@ def test_png_has_the_requested_size_and_shows_the_scene(tabletop, plan, tmp_path
 def test_png_state_out_of_range(tabletop, plan, tmp_path):
     from tmpc.lang.diagnostics import InputError
     from tmpc.runtime.viewer import write_png
-    with pytest.raises(InputError, match="the plan has states 0 to 8"):
-        write_png(tabletop, plan, tmp_path / "x.png", state_index=9)
+    with pytest.raises(InputError, match="the plan has states 0 to 9"):
+        write_png(tabletop, plan, tmp_path / "x.png", state_index=10)
     assert not list(tmp_path.iterdir())
 
 
