@@ -137,10 +137,28 @@ _MESH_WHERE = ("collision checks need the mesh: put it there, or set TMPC_MESH_P
 _PLY_FACES = re.compile(rb"^element\s+face\s+(\d+)", re.MULTILINE)
 
 
+#: mesh_defect's answers by (path, size, modification time): the language server checks a
+#: run configuration on every edit, and a scene's meshes are read again only when they change
+_DEFECTS: dict[tuple, str | None] = {}
+
+
 def mesh_defect(path: Path) -> str | None:
     """Why the mesh file ``path`` cannot be loaded, from a cheap look at it (no mesh library):
     unreadable, empty, or an STL/OBJ/PLY file without triangles. None: it looks loadable (other
     formats are not looked into)."""
+    try:
+        st = path.stat()
+    except OSError as exc:
+        return str(exc.strerror or exc)
+    key = (str(path), st.st_size, st.st_mtime_ns)
+    if key not in _DEFECTS:
+        if len(_DEFECTS) >= 256:
+            _DEFECTS.clear()
+        _DEFECTS[key] = _look_at_mesh(path)
+    return _DEFECTS[key]
+
+
+def _look_at_mesh(path: Path) -> str | None:
     try:
         data = path.read_bytes()
     except OSError as exc:
