@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
+from tmpc.compiler.artifact import digest
 from tmpc.compiler.export import open_for_run
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.runtime.bench.backends import BACKENDS, LostRun
@@ -25,7 +26,6 @@ from tmpc.runtime.bench.params import param_points
 from tmpc.runtime.bench.progress import Progress
 from tmpc.runtime.bench.results import FINISHED, ResultsFile, run_key
 from tmpc.runtime.bench.sweep import Bench
-from tmpc.runtime.bench.worker import artifact_digest
 from tmpc.runtime.problem import PlanningProblem, register_run_kernels
 
 #: seconds between checks for finished runs (and for Ctrl-C)
@@ -64,7 +64,7 @@ class Dispatch:
             return None
         art = Path(world.artifact[0])
         data = art.read_bytes()
-        prec.update(digest=artifact_digest(data), artifact=str(art),
+        prec.update(digest=digest(data), artifact=str(art),
                     setup_seconds=round(time.perf_counter() - t, 4), compile_seconds=0.0,
                     dof=int(problem.model.dof), ground_actions=len(problem.ground.actions),
                     config_params=[list(p) for p in world.config.params]

@@ -12,7 +12,6 @@ one problem load and warm it up once (``setup_cached``). Module-level and import
 
 from __future__ import annotations
 
-import hashlib
 import os
 import platform
 import time
@@ -28,10 +27,6 @@ from tmpc.runtime.bench.sweep import Bench, build_problem
 _PROBLEMS: dict[str, tuple] = {}
 #: problems a worker keeps; the oldest set-up problem is dropped beyond this
 KEEP = 4
-
-
-def artifact_digest(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
 
 
 def run_task(artifact, task: dict) -> dict:

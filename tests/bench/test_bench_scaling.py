@@ -39,12 +39,12 @@ def clutter4(tmp_path_factory):
     subprocess.run([sys.executable, str(EXAMPLES / "clutter" / "generate.py"), "4", "-o",
                     str(d)], check=True, capture_output=True)
     from tmpc.runtime.bench.dispatch import open_compiled
-    from tmpc.runtime.bench.worker import artifact_digest
+    from tmpc.compiler.artifact import digest
     world = open_compiled(d / "clutter-4.toml")
     art = Path(world.artifact[0])
     data = art.read_bytes()
     tasks = [{"problem": "clutter-4", "input": str(d / "clutter-4.toml"),
-              "digest": artifact_digest(data), "planner": "unified", "seed": s, "params": {},
+              "digest": digest(data), "planner": "unified", "seed": s, "params": {},
               "time_limit": LIMIT, "validate": False, "config_params": None}
              for s in range(RUNS)]
     return art, data, tasks

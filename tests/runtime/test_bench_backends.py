@@ -12,6 +12,7 @@ from types import SimpleNamespace
 import pytest
 
 from tests.support import CLUTTER
+from tmpc.compiler.artifact import digest
 from tmpc.runtime.bench import backends, dispatch, worker
 from tmpc.runtime.bench.params import ParamError, param_points, parse_params
 from tmpc.runtime.bench.results import ResultsFile, read_results, run_key
@@ -148,7 +149,7 @@ def test_local_pool_plans_equal_this_process(tmp_path, inline):
             tasks.append(task)
         art = _artifact(tmp_path)
         for task in tasks:
-            task["digest"] = worker.artifact_digest(Path(art).read_bytes())
+            task["digest"] = digest(Path(art).read_bytes())
             pool.submit(pool.put(art, b""), task)
         got = []
         while pool.flight:
