@@ -403,8 +403,12 @@ class CollisionWorld:
         return frames, local
 
     def _set(self, g: int, T: np.ndarray) -> None:
+        self._place(g, T[:3, :3], T[:3, 3])
+
+    def _place(self, g: int, R: np.ndarray, t: np.ndarray) -> None:
+        """Geometry g's fcl objects (the shape, and a mesh's hull) at rotation R, translation t."""
         import fcl
-        tf = fcl.Transform(T[:3, :3], T[:3, 3])
+        tf = fcl.Transform(R, t)
         geom = self.geoms[g]
         geom.obj.setTransform(tf)
         if geom.hull is not None:
@@ -626,7 +630,6 @@ class CollisionWorld:
         slot[moving] = np.arange(len(i))
         bad: list[int] = []
         cur, done, placed = -1, False, set()
-        import fcl
         for row, (st, a, b) in enumerate(zip(states.tolist(), cand.ga.tolist(),
                                              cand.gb.tolist())):
             if st != cur:
@@ -635,11 +638,7 @@ class CollisionWorld:
                 continue
             for g, k in ((a, slot[row, 0]), (b, slot[row, 1])):
                 if k >= 0 and g not in placed:
-                    geom = self.geoms[g]
-                    tf = fcl.Transform(Rw[k], tw[k])
-                    geom.obj.setTransform(tf)
-                    if geom.hull is not None:
-                        geom.hull.setTransform(tf)
+                    self._place(g, Rw[k], tw[k])
                     placed.add(g)
             if self._counts(self._depth(a, b)):
                 bad.append(st)
