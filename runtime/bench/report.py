@@ -6,7 +6,13 @@ them (self-contained: the images are data URIs), regenerated from the file alone
 * ``time_vs_size.png``: the median planning time with its interquartile range against problem
   size (ground actions), log scale; an unsolved run counts as infinitely long, as in the table;
 * ``cost.png``: the median best cost over planning time of anytime runs (those with a
-  ``cost_trace``), per problem and planner; only when the file has such runs.
+  ``cost_trace``), per problem and planner; only when the file has such runs;
+* ``error_over_edits.png``: a repair experiment's error over the formulas evaluated within each
+  repair and its parameter error over repairs (the thesis's Fig. 3.3), when an input is a
+  ``report.json`` of `tmpc repair --experiment` (a colour per experiment);
+* ``table.md``: the Markdown tables of the README's Performance section: a row per problem and
+  planner (solved, median time and IQR, actions, cost, setup, memory), and a row per repair
+  experiment.
 
 matplotlib is imported when a report is drawn (not by ``tmpc --help``).
 """
@@ -15,13 +21,17 @@ from __future__ import annotations
 
 import base64
 import html
+import io
 import json
 import math
+import re
 from collections import defaultdict
 from pathlib import Path
 
+from tmpc.lang.fileio import atomic_write_bytes, atomic_write_text
 from tmpc.runtime.bench.results import read_results
 from tmpc.runtime.bench.sweep import cost_at, quantile
+from tmpc.runtime.repair import edits_figure, repair_table
 
 
 def cell(rec: dict) -> str:
@@ -40,12 +50,42 @@ def solve_time(rec: dict) -> float:
     return math.inf if t is None else float(t)
 
 
+def read_inputs(files) -> tuple[list[dict], list[dict]]:
+    """The runs of the results files (JSON lines) and the repair reports (``report.json`` of
+    `tmpc repair --experiment`: one JSON object with ``trials``) among ``files``."""
+    recs, reports = [], []
+    for f in files:
+        doc = _repair_report(f)
+        if doc is not None:
+            reports.append(doc)
+        else:
+            recs += [r for r in read_results(f) if r.get("status") in ("solved", "partial",
+                                                                       "crash")]
+    return recs, reports
+
+
+def _repair_report(path) -> dict | None:
+    """``path``'s repair report, or None when it is a results file (a JSON object a line)."""
+    with open(path, "rb") as f:
+        try:
+            json.loads(f.readline())
+            return None                     # its first line is a whole record: JSON lines
+        except ValueError:
+            pass
+        f.seek(0)
+        try:
+            doc = json.loads(f.read())
+        except ValueError:
+            return None                     # a torn results file
+    return doc if isinstance(doc, dict) and isinstance(doc.get("trials"), list) else None
+
+
 def write_report(files, out_dir) -> list[Path]:
-    """Draw the report of the results ``files`` into ``out_dir``; returns the files written."""
+    """Draw the report of the results ``files`` (and repair reports) into ``out_dir``; returns
+    the files written."""
     import matplotlib
     matplotlib.use("Agg")
-    recs = [r for f in files for r in read_results(f)
-            if r.get("status") in ("solved", "partial", "crash")]
+    recs, reports = read_inputs(files)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures = [("success.png", "Success rate over time", success_plot),
@@ -53,15 +93,71 @@ def write_report(files, out_dir) -> list[Path]:
                ("cost.png", "Cost over time (anytime planners)", cost_plot)]
     written = []
     for name, title, draw in figures:
-        fig = draw(recs)
-        if fig is None:
-            continue
-        fig.savefig(out / name, dpi=110, bbox_inches="tight")
-        matplotlib.pyplot.close(fig)
-        written.append((out / name, title))
+        if not recs:
+            break
+        _save(draw(recs), out / name, title, written)
+    if reports:
+        _save(edits_figure(reports), out / "error_over_edits.png",
+              "Error over edits (repair experiments)", written)
+    tables = ((summary_table(recs) if recs else "")
+              + ("\n" if recs and reports else "") + (repair_table(reports) if reports else ""))
+    atomic_write_text(out / "table.md", tables)
     page = out / "report.html"
-    page.write_text(html_page(files, recs, written), encoding="utf-8")
-    return [p for p, _ in written] + [page]
+    atomic_write_text(page, html_page(files, recs, reports, written, tables))
+    return [p for p, _ in written] + [out / "table.md", page]
+
+
+def _save(fig, path: Path, title: str, written: list) -> None:
+    import matplotlib.pyplot as plt
+    if fig is None:
+        return
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+    written.append((path, title))
+
+
+def _natural(name: str) -> tuple:
+    """clutter-2 before clutter-10."""
+    return tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name))
+
+
+def summary_table(recs: list[dict]) -> str:
+    """A Markdown row per problem and planner cell: solved, median time to the (first) solution
+    and IQR (an unsolved run counts as infinitely long), median actions and cost of the solved
+    runs, median setup, peak RSS, invalid plans and the mean load before the runs."""
+    rows = defaultdict(list)
+    for r in recs:
+        rows[(r["problem"], cell(r))].append(r)
+
+    def t(x: float) -> str:
+        return "—" if math.isnan(x) else ("unsolved" if math.isinf(x) else f"{x:.2f}")
+
+    def med(xs: list) -> float:
+        xs = [float(x) for x in xs if x is not None]
+        return quantile(xs, 0.5) if xs else math.nan
+
+    lines = ["| problem | planner | solved | median s (IQR) | median actions | median cost | "
+             "setup s | peak RSS MiB | invalid | load |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for (problem, name), rs in sorted(rows.items(), key=lambda kv: (_natural(kv[0][0]),
+                                                                   kv[0][1])):
+        times = [solve_time(r) for r in rs]
+        solved = [r for r in rs if r.get("solved")]
+        rss = [r["peak_rss_mib"] for r in rs if r.get("peak_rss_mib") is not None]
+        checked = [r for r in rs if r.get("valid") is not None]
+        acts = med([r.get("n_actions", len(r.get("actions") or [])) for r in solved])
+        lines.append(
+            f"| {problem} | {name} | {len(solved)}/{len(rs)} | {t(quantile(times, 0.5))} "
+            f"({t(quantile(times, 0.25))}–{t(quantile(times, 0.75))}) | "
+            f"{'—' if math.isnan(acts) else f'{acts:g}'} | "
+            f"{t(med([r.get('cost') for r in solved]))} | "
+            f"{t(med([r.get('setup_seconds') for r in rs]))} | "
+            f"{f'{max(rss):.0f}' if rss else '—'} | "
+            + (f"{sum(r['valid'] is False for r in checked)}/{len(checked)}" if checked
+               else "not checked") + " | "
+            f"{t(med([(r.get('load_before') or [None])[0] for r in rs]))} |")
+    return "\n".join(lines) + "\n"
 
 
 def _axes(title: str, xlabel: str, ylabel: str):
@@ -146,30 +242,37 @@ def cost_plot(recs: list[dict]):
     return fig
 
 
-def html_page(files, recs: list[dict], figures: list[tuple[Path, str]]) -> str:
-    """A self-contained page: a summary table per cell and the figures as data URIs."""
-    rows = defaultdict(list)
-    for r in recs:
-        rows[(r["problem"], cell(r))].append(r)
-    trs = []
-    for (problem, name), rs in sorted(rows.items()):
-        times = [solve_time(r) for r in rs]
-        med = quantile(times, 0.5)
-        trs.append("<tr>" + "".join(f"<td>{html.escape(str(v))}</td>" for v in (
-            problem, name, f"{sum(r.get('solved', False) for r in rs)}/{len(rs)}",
-            "unsolved" if not math.isfinite(med) else f"{med:.2f}",
-            sum(r.get("valid") is False for r in rs))) + "</tr>")
+def html_page(files, recs: list[dict], reports: list[dict],
+              figures: list[tuple[Path, str]], tables: str) -> str:
+    """A self-contained page: the tables of ``table.md`` and the figures as data URIs."""
     imgs = "".join(
         f"<figure><img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,"
         f"{base64.b64encode(path.read_bytes()).decode()}\"><figcaption>{html.escape(title)}"
         "</figcaption></figure>" for path, title in figures)
     sources = ", ".join(html.escape(str(f)) for f in files)
+    what = [f"{len(recs)} runs"] if recs else []
+    what += [f"{len(reports)} repair report{'s' * (len(reports) != 1)}"] if reports else []
     return ("<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<title>tmpc bench report</title><style>body{font-family:sans-serif;margin:2em}"
-            "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:.3em .6em}"
-            "img{max-width:100%}figure{display:inline-block;margin:1em}</style></head><body>"
-            f"<h1>tmpc bench report</h1><p>{len(recs)} runs from {sources}</p>"
-            "<table><tr><th>problem</th><th>planner</th><th>solved</th>"
-            "<th>median time (s)</th><th>invalid plans</th></tr>" + "".join(trs) + "</table>"
-            + imgs + f"<script type=\"application/json\" id=\"data\">"
-            f"{html.escape(json.dumps({'runs': len(recs)}))}</script></body></html>\n")
+            "table{border-collapse:collapse;margin-bottom:1em}td,th{border:1px solid #ccc;"
+            "padding:.3em .6em}img{max-width:100%}figure{display:inline-block;margin:1em}"
+            "</style></head><body>"
+            f"<h1>tmpc bench report</h1><p>{' and '.join(what) or 'nothing'} from {sources}</p>"
+            + _html_tables(tables) + imgs + "<script type=\"application/json\" id=\"data\">"
+            f"{html.escape(json.dumps({'runs': len(recs), 'repair_reports': len(reports)}))}"
+            "</script></body></html>\n")
+
+
+def _html_tables(md: str) -> str:
+    """The Markdown tables of ``md`` (a header, a rule, rows; blank lines between) as HTML."""
+    out = []
+    for block in md.strip().split("\n\n"):
+        lines = [ln.strip().strip("|").split("|") for ln in block.splitlines() if ln.strip()]
+        if len(lines) < 2:
+            continue
+        head, body = lines[0], lines[2:]
+        out.append("<table><tr>" + "".join(f"<th>{html.escape(c.strip())}</th>" for c in head)
+                   + "</tr>" + "".join("<tr>" + "".join(f"<td>{html.escape(c.strip())}</td>"
+                                                        for c in row) + "</tr>" for row in body)
+                   + "</table>")
+    return "".join(out)

@@ -318,7 +318,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "independent validator")
         g = p.add_argument_group("distributed sweeps (docs/bench.md); any of these, or -o "
                                  "R.jsonl, runs each run as a task; `tmpc bench report "
-                                 "R.jsonl -o DIR` plots a results file")
+                                 "R.jsonl [report.json] -o DIR` draws plots and tables of "
+                                 "results files and repair reports")
         g.add_argument("--backend", choices=("local", "ray"), help="local: a process pool on "
                        "this machine (the default); ray: Ray tasks (pip install "
                        "'tmpc[cluster]')")

@@ -21,6 +21,8 @@ from tmpc.runtime.repair.loop import Sampled as Sampled
 from tmpc.runtime.repair.loop import run_loop as run_loop
 from tmpc.runtime.repair.model import TEMPLATES as TEMPLATES
 from tmpc.runtime.repair.model import Formula as Formula
+from tmpc.runtime.repair.report import edits_figure as edits_figure
+from tmpc.runtime.repair.report import repair_table as repair_table
 from tmpc.runtime.repair.report import write_report as write_report
 from tmpc.runtime.repair.store import Store as Store
 from tmpc.runtime.repair.world import PyController as PyController

@@ -191,6 +191,42 @@ def test_report_draws_plots_and_a_page(tmp_path):
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
     page = (tmp_path / "rep" / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 3 and "unified" in page
+    # the README's table, from the file alone: c10 before c40, the median over 3 solved and 1
+    # unsolved of 1.5, 2.5, 3.5 is 3.0; the anytime cell's time is its first solution's
+    table = (tmp_path / "rep" / "table.md").read_text().splitlines()
+    rows = [ln for ln in table if ln.startswith("| c")]
+    assert [r.split(" | ")[:4] for r in rows] == [
+        ["| c10", "optimal", "4/4", "2.50 (1.75–3.25)"], ["| c10", "unified", "3/4",
+                                                          "3.00 (2.25–unsolved)"],
+        ["| c40", "unified", "3/4", "6.00 (5.25–unsolved)"]]
+    assert "<td>2.50 (1.75–3.25)</td>" in page
+
+
+def test_report_draws_error_over_edits_of_repair_reports(tmp_path):
+    """A repair experiment's report.json among the inputs: its error-over-edits panels and its
+    row of the repair table, from the file alone, beside the runs of a results file."""
+    rep = {"experiment": 2, "truth": "(dist ?c ?g 0.1)", "trials": [
+        {"seed": s, "final_formula": "(dist ?c ?g 0.1)", "structurally_correct": s != 2,
+         "param_error": None if s == 2 else 0.001 * s, "edits": 3, "unexpected": 10,
+         "loop_seconds": [0.5, 1.5], "observations": 90 + s, "status": "stopped",
+         "repairs": [{"observation": 4, "error": 0.0, "edits": 2, "trace": [0.3, 0.01, 0.0],
+                      "param_error": 0.02},
+                     {"observation": 9, "error": 0.0, "edits": 1, "trace": [0.1, 0.0],
+                      "param_error": None if s == 2 else 0.001 * s}]} for s in range(3)]}
+    (tmp_path / "report.json").write_text(json.dumps(rep, indent=1) + "\n")
+    runs = tmp_path / "r.jsonl"
+    runs.write_text(json.dumps({"problem": "c1", "planner": "unified", "seed": 0, "params": {},
+                                "status": "solved", "solved": True, "planning_seconds": 1.0,
+                                "ground_actions": 4, "time_limit": 10.0}) + "\n")
+    assert main(["bench", "report", str(tmp_path / "report.json"), str(runs), "-o",
+                 str(tmp_path / "out")]) == 0
+    png = (tmp_path / "out" / "error_over_edits.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    table = (tmp_path / "out" / "table.md").read_text()
+    assert "| c1 | unified | 1/1 | 1.00 (1.00–1.00) |" in table
+    assert "| 2 | 3 | 2/3 | 0.0010 / 0.0005 | 10 | 91 | 3 | 1.50 / 1.000 |" in table
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 3      # success, size, error over edits
 
 
 def test_ctrl_c_cancels_and_keeps_the_finished_runs(tmp_path, inline, monkeypatch, capsys):

@@ -393,5 +393,13 @@ def test_the_experiment_command_writes_the_documented_report(tmp_path):
                           "edits", "unexpected", "loop_seconds"}
     assert trial["structurally_correct"] is True and trial["param_error"] <= 0.01
     assert trial["unexpected"] == 5 and len(trial["loop_seconds"]) == 5
+    # error over edits, from the file alone: one record per repair, each a non-increasing
+    # trace of best errors ending at the repair's error, which explains the observations (0)
+    assert len(trial["repairs"]) == 5
+    for r in trial["repairs"]:
+        assert set(r) >= {"observation", "error", "edits", "trace", "param_error"}
+        assert r["trace"] and r["trace"] == sorted(r["trace"], reverse=True)
+        assert r["trace"][-1] == r["error"] and r["error"] <= 1e-9
+    assert trial["repairs"][-1]["param_error"] == trial["param_error"]
     png = tmp_path / "r" / "experiment1.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
