@@ -205,6 +205,7 @@ def _register_pytrees() -> None:
     global _REGISTERED
     if _REGISTERED:
         return
+    configured()
     from jax import export
     export.register_namedtuple_serialization(Frames, serialized_name="tmpc.Frames")
     _REGISTERED = True

@@ -80,3 +80,25 @@ def test_checks_look_at_a_mesh_as_the_loader_reads_it(tmp_path, name, text):
     except Exception:
         loads = False
     assert (mesh_defect(path) is None) == loads
+
+
+def test_a_mesh_bounding_ball_is_kept_in_the_first_pass_store(tmp_path, monkeypatch):
+    """A mesh's bounding ball is computed once and read back from the store by the next run,
+    equal, and it contains every vertex."""
+    import trimesh
+    from tmpc.runtime.collision import spheres
+    from tmpc.runtime.collision.store import FirstPassStore
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path))
+    m = trimesh.creation.icosphere(subdivisions=2, radius=0.2)
+    mesh = type("Mesh", (), {"vertices": np.asarray(m.vertices) + [0.3, 0, 0.1],
+                             "faces": np.asarray(m.faces)})()
+    shape = type("Shape", (), {"kind": "mesh"})()
+    store = FirstPassStore("ball-test")
+    c, r = spheres.ball(shape, mesh, store)
+    assert np.linalg.norm(mesh.vertices - c, axis=1).max() <= r
+    store.save()
+    monkeypatch.setattr(spheres, "bounding_ball", _no_load)
+    c2, r2 = spheres.ball(shape, mesh, FirstPassStore("ball-test"))
+    assert np.array_equal(c, c2) and r == r2
+    with pytest.raises(AssertionError):          # without a store it is computed each time
+        spheres.ball(shape, mesh)
