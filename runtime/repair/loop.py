@@ -14,6 +14,7 @@ draws what an uninterrupted one would have.
 from __future__ import annotations
 
 import json
+import math
 import time
 from dataclasses import dataclass, field, replace
 
@@ -30,7 +31,7 @@ from tmpc.runtime.repair.model import (
     signed,
 )
 from tmpc.runtime.repair.model import error as formula_error
-from tmpc.runtime.repair.search import ZERO, Problem, search
+from tmpc.runtime.repair.search import ZERO, Problem, anchored, search
 from tmpc.runtime.repair.store import Observation, RepairStep, Store
 from tmpc.runtime.repair.world import read_observations
 
@@ -209,7 +210,7 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
     result = None
     for _round in range(4):
         prob = Problem(feats.take(fit), feats.take(held) if held else feats.take([]),
-                       rw.target.instances)
+                       rw.target.instances, anchor(rw.target.start))
         result = search(prob, current, time_limit=cfg.search_seconds, max_edits=cfg.max_edits)
         miss = np.flatnonzero(predicts(result.best.formula, feats) != feats.success)
         new = [i for i in miss if i not in set(fit)]
@@ -236,18 +237,32 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
     return kept, step, effect
 
 
-def refit(f: Formula, feats: Features) -> Formula:
+def anchor(model: Formula) -> dict:
+    """The model's parameter of each instance it uses."""
+    return {lit.instance: lit.theta for c in model.clauses for lit in c}
+
+
+def refit(f: Formula, feats: Features, anchors: dict | None = None) -> Formula:
     """``f`` with each continuous parameter of its one clause moved to the middle of its
     zero-error interval over **every** observation, the others held (maximum margin; two
     sweeps, as the literals' intervals depend on each other). A repair centres the parameters
     on the observations it fits; between repairs, the expected observations that land in a
     parameter's gap narrow it too, so active sampling's probes of the boundary bisect it
     without waiting for an unexpected outcome. ``f`` itself when it has several clauses, no
-    parameter, or misclassifies an observation (that is a repair's job)."""
+    parameter, or misclassifies an observation (that is a repair's job).
+
+    ``anchors`` (the model's parameters): a distance goes back to the model's value when the
+    observations allow it, the other literals narrowed to keep every observation right
+    (:func:`~tmpc.runtime.repair.search.anchored`), and one that nothing bounds from above
+    goes back to it too (the least change to the model as written)."""
     th = f.thetas()
     if len(f.clauses) != 1 or not len(th) or (predicts(f, feats) != feats.success).any():
         return f
     th = th.copy()
+    if anchors:
+        moved = anchored(f, feats, th, anchors)
+        if moved is not None:
+            th = moved
     lits = f.clauses[0]
     holds = np.ones(len(feats), bool)
     for lit in f.discrete:
@@ -260,11 +275,16 @@ def refit(f: Formula, feats: Features) -> Formula:
                 if j != k:
                     others &= T[j] <= th[j]
             fails = T[k][others & ~feats.success]
-            if not len(fails):
-                continue        # nothing outside restricts it: keep it where the repair put it
             lo_b, hi_b = lit.instance.template.bounds
             wins = T[k][others & feats.success]
             lo = max(float(wins.max()) if len(wins) else lo_b, lo_b)
+            if not len(fails):
+                # nothing outside restricts it: the model's value where the successes allow it
+                # (the least change), else where the repair put it
+                back = (anchors or {}).get(lit.instance)
+                if back is not None and math.isinf(lit.instance.template.full) and back > lo:
+                    th[k] = min(back, hi_b)
+                continue
             hi = min(float(fails.min()), hi_b)
             if lo <= th[k] < hi:
                 th[k] = (lo + hi) / 2
@@ -287,6 +307,7 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
              on_event=None) -> LoopResult:
     """Run (or resume, from what ``store`` holds for ``trial``) the repair loop."""
     scope = rw.scope
+    anchors = anchor(start)
     observations = store.observations(trial)
     steps = store.repairs(trial)
     current = parse_truth(steps[-1].formula, rw.target, scope) if steps else start
@@ -321,7 +342,7 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
     def refit_after(seq: int, feats: Features) -> Formula:
         """The current formula refitted after observation ``seq`` (:func:`refit`); a move is
         stored as a step (hypothesis "refit"), so a resumed loop continues from it."""
-        moved = refit(current, feats)
+        moved = refit(current, feats, anchors)
         if moved is not current:
             step = RepairStep(seq, moved.text(True), previous.text(True), 0.0, "refit", 0, 1,
                               0.0, [0.0], steps[-1].ties if steps else [])

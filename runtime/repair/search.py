@@ -41,10 +41,12 @@ class Candidate:
     error: float
     held_error: float
     edits: int
+    #: how far its parameters are from the model's (relative to each template's range)
+    deviation: float = 0.0
 
     def rank(self) -> tuple:
         return (round(self.error, 12), round(self.held_error, 12), self.changes,
-                self.formula.size)
+                round(self.deviation, 9), self.formula.size)
 
     @property
     def changes(self) -> int:
@@ -94,8 +96,12 @@ def _objective():
 class Problem:
     """The observations of one repair and the instances formulas may use, as padded arrays."""
 
-    def __init__(self, feats: Features, held: Features, instances: list[Instance]):
+    def __init__(self, feats: Features, held: Features, instances: list[Instance],
+                 anchor: dict | None = None):
         self.feats, self.held = feats, held
+        #: the model's own parameter of each instance it uses (where a parameter that nothing
+        #: bounds from above goes back to: the least change to the model as written)
+        self.anchor = dict(anchor or {})
         self.cont = sorted(i for i in instances if not i.discrete)
         self.disc = sorted(i for i in instances if i.discrete)
         n = len(feats)
@@ -202,12 +208,70 @@ def _sweep(prob: Problem, f: Formula, x: np.ndarray, bounds, sweeps: int = 3) ->
     return x
 
 
+def deviation(f: Formula, anchor: dict) -> float:
+    """How far ``f``'s parameters are from the model's (``anchor``), each difference over its
+    template's range: the repair that keeps the model's values where the data allows ranks
+    first among formulas as good and as small a change."""
+    return sum(abs(lit.theta - anchor[lit.instance]) / lit.instance.template.bounds[1]
+               for c in f.clauses for lit in c if lit.instance in anchor)
+
+
+def anchored(f: Formula, feats: Features, th: np.ndarray, anchor: dict) -> np.ndarray | None:
+    """Parameters of a one-clause ``f`` that classify every observation of ``feats`` right with
+    each unbounded parameter the model has (a distance) at the model's value, the others
+    narrowed to exclude the failures that then need them; None when there are none.
+
+    A clause {t_k <= theta_k} is right iff each theta_k is at least the successes' t_k and each
+    failure has some t_k above its theta_k. Coordinate-wise centring (:func:`_centre`, the
+    loop's refit) keeps whichever corner of that staircase the search reached: after earlier
+    repairs shrank a distance to explain failures that a new literal now explains, a shrunk
+    distance and a wide band, where the model's distance and a narrow band explain them too.
+    """
+    if len(f.clauses) != 1 or not len(th):
+        return None
+    lits = f.clauses[0]
+    pin = [lit.instance in anchor and math.isinf(lit.instance.template.full) for lit in lits]
+    if not any(pin) or all(pin):
+        return None
+    holds = np.ones(len(feats), bool)
+    for lit in f.discrete:
+        holds &= feats.truth[lit.instance] == lit.positive
+    T = [feats.t[lit.instance] for lit in lits]
+    y = np.asarray(th, float).copy()
+    for k, lit in enumerate(lits):
+        if pin[k]:
+            y[k] = anchor[lit.instance]
+    for _ in range(2):
+        for k, lit in enumerate(lits):
+            if pin[k]:
+                continue
+            others = holds.copy()
+            for j in range(len(lits)):
+                if j != k:
+                    others &= T[j] <= y[j]
+            wins, fails = T[k][others & feats.success], T[k][others & ~feats.success]
+            lo = float(wins.max()) if len(wins) else lit.instance.template.bounds[0]
+            hi = float(fails.min()) if len(fails) else math.inf
+            if lo >= hi:
+                return None
+            if not lo <= y[k] < hi:
+                y[k] = (lo + min(hi, lit.instance.template.bounds[1])) / 2
+    g = f.with_thetas(y)
+    return y if (predicts(g, feats) == feats.success).all() else None
+
+
 def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
     """Move each parameter to the middle of the interval around it where the error stays at
-    its value (the error only changes where a feature value crosses the parameter)."""
+    its value (the error only changes where a feature value crosses the parameter); a clause
+    that classifies every observation right first moves to the model's distances where it can
+    (:func:`anchored`)."""
     x = x.copy()
     feats = prob.feats
     lits = [lit for c in f.clauses for lit in c]
+    if prob.anchor and error(f, feats, x) <= ZERO:
+        y = anchored(f, feats, x, prob.anchor)
+        if y is not None:
+            x = y
     for k, lit in enumerate(lits):
         base = error(f, feats, x)
         lo, hi = bounds[k]
@@ -232,9 +296,11 @@ def _centre(prob: Problem, f: Formula, x: np.ndarray, bounds) -> np.ndarray:
         if b == len(mids) - 1 and hi >= full:
             x[k] = full      # nothing above restricts it: the literal holds everywhere
         elif b == len(mids) - 1 and math.isinf(full):
-            # nothing above restricts it, and the feature has no end (a distance): it stays
-            # where the formula had it (the least change), not halfway to the search bound
-            x[k] = max(x[k], (cuts[a] + cuts[a + 1]) / 2)
+            # nothing above restricts it, and the feature has no end (a distance): it goes back
+            # to the model's value (else stays where the formula had it), the least change, not
+            # halfway to the search bound. A parameter shrunk to explain failures that another
+            # literal now explains is thus not left at its shrunk value.
+            x[k] = max(prob.anchor.get(lit.instance, x[k]), (cuts[a] + cuts[a + 1]) / 2)
         else:
             x[k] = (cuts[a] + cuts[b + 1]) / 2
     return x
@@ -305,7 +371,8 @@ def search(prob: Problem, start: Formula, *, time_limit: float = 10.0, max_edits
     def evaluate(f: Formula, edits_made: int) -> Candidate:
         f = optimise(prob, f)
         held = float(error(f, prob.held)) if len(prob.held) else 0.0
-        return Candidate(f, float(error(f, prob.feats)), held, edits_made)
+        return Candidate(f, float(error(f, prob.feats)), held, edits_made,
+                         deviation(f, prob.anchor))
 
     first = evaluate(start, 0)
     seen = {first.formula.key()}

@@ -212,6 +212,50 @@ def test_refit_centres_each_parameter_in_its_zero_error_gap_over_every_observati
     assert refit(loose, unbounded) is loose
 
 
+def test_a_shrunk_distance_goes_back_to_the_models_value_when_a_band_explains_the_failures():
+    """The staircase of a conjunction: a few observations (two successes near the object and
+    aligned, failures misaligned at several distances) are classified right both by a shrunk
+    distance with a band as wide as the angle's range and by the model's distance with a narrow
+    band. ``anchored`` finds the latter, checked by brute force over the band; refit and a
+    repair's centring use it, and the ranking prefers it (deviation from the model)."""
+    from tmpc.runtime.repair.loop import anchor, refit
+    from tmpc.runtime.repair.search import anchored, deviation, optimise
+    _, (d, r, p, e) = _synthetic(1, 0, lambda d, r, p, e: d < 0)
+    # (distance, roll, success): the truth is d < 0.1 and roll < 0.3
+    obs = [(0.005, 0.05, True), (0.008, 0.2, True), (0.015, 0.5, False), (0.03, 1.0, False),
+           (0.06, 0.4, False), (0.2, 0.1, False), (0.3, 0.05, False), (0.05, 2.0, False)]
+
+    def feats_of(rows):
+        n = len(rows)
+        return Features({d: np.array([o[0] for o in rows]), r: np.array([o[1] for o in rows]),
+                         p: np.zeros(n)}, {e: np.ones(n, bool)}, np.array([o[2] for o in rows]))
+
+    feats = feats_of(obs)
+    model = anchor(Formula((), ((Literal(d, 0.1),),)))
+    wide = Formula((), ((Literal(d, 0.0135), Literal(r, 3.0)),))
+    assert float(error(wide, feats)) == 0.0
+    y = anchored(wide, feats, wide.thetas(), model)
+    assert y is not None and y[0] == 0.1
+    bands = np.linspace(0, math.pi, 31417)
+    good = bands[[float(error(wide.with_thetas([0.1, b]), feats)) == 0.0 for b in bands]]
+    assert good.min() == pytest.approx(0.2, abs=1e-3) and good.max() == pytest.approx(0.4,
+                                                                                   abs=1e-3)
+    assert y[1] == pytest.approx(0.3)                       # the middle of that gap
+    assert deviation(wide.with_thetas(y), model) == 0.0 < deviation(wide, model)
+    # the loop's refit and a repair's centring start there, then centre the distance in its
+    # gap with the band at 0.3 (successes up to 0.008, failures from 0.2); without the model,
+    # the distance stays shrunk
+    assert refit(wide, feats, model).thetas() == pytest.approx([0.104, 0.3])
+    assert refit(wide, feats).thetas()[0] < 0.015
+    prob = Problem(feats, feats.take([]), [d, r, p, e], model)
+    assert optimise(prob, wide).thetas() == pytest.approx([0.104, 0.3])
+    # nothing to move to: a failure within the model's distance that no band excludes
+    bad = feats_of(obs + [(0.08, 0.1, False)])
+    assert float(error(wide, bad)) == 0.0
+    assert anchored(wide, bad, wide.thetas(), model) is None
+    assert refit(wide, bad, model).thetas()[0] < 0.015
+
+
 # ---- the loop, the store, resume ----------------------------------------------------------------
 
 def test_experiment_one_converges_to_the_truths_parameter(rw, tmp_path):
