@@ -6,12 +6,18 @@ path to them) and the run's description, and returns the run's JSON record: :met
 measurements (the same code as the one-process sweep) plus the fields results files promise
 (``params``, ``valid``, ``actions``, ``planning_seconds``, ``setup_seconds``, ``cost``,
 ``worker``). A worker keeps the problems it set up, by artifact digest, so consecutive runs on
-one problem load and warm it up once (``setup_cached``). Module-level and importable: Ray and a
-``spawn`` process pool both call it by name.
+one problem load and warm it up once (``setup_cached``). It keeps one: a sweep sends a problem's
+runs together, so the previous problem and what JAX compiled for it are dropped before the next
+is set up (three clutter problems in turn, warm caches: 740 MB at the third keeping them all,
+713 MB dropping them). A worker's peak still grows when it compiles kernels itself (a cold
+cache: XLA's compiler memory is not all given back), so a sweep's peak RSS column is the
+worker's, over the problems it ran. Module-level and importable: Ray and a ``spawn`` process
+pool both call it by name.
 """
 
 from __future__ import annotations
 
+import gc
 import os
 import platform
 import time
@@ -19,6 +25,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from tmpc.compiler.cache import cache_root
+from tmpc.compiler.jaxcfg import configured
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.runtime.bench.sweep import Bench, build_problem
@@ -26,7 +33,7 @@ from tmpc.runtime.bench.sweep import Bench, build_problem
 #: artifact digest -> (PlanningProblem, problem record); one worker process's problems
 _PROBLEMS: dict[str, tuple] = {}
 #: problems a worker keeps; the oldest set-up problem is dropped beyond this
-KEEP = 4
+KEEP = 1
 
 
 def run_task(artifact, task: dict) -> dict:
@@ -75,16 +82,25 @@ def _problem(artifact, task: dict):
     if digest in _PROBLEMS:
         problem, prec = _PROBLEMS[digest]
         return problem, prec, True
+    _drop_problems()
     path = _local_copy(artifact, digest)
     prec = {"name": task["problem"], "input": task["input"]}
     t = time.perf_counter()
     problem = build_problem(path, prec, task.get("config_params"))
     prec.update(setup_seconds=round(time.perf_counter() - t, 4), dof=int(problem.model.dof),
                 ground_actions=len(problem.ground.actions))
-    while len(_PROBLEMS) >= KEEP:
-        _PROBLEMS.pop(next(iter(_PROBLEMS)))
     _PROBLEMS[digest] = (problem, prec)
     return problem, prec, False
+
+
+def _drop_problems() -> None:
+    """Forget all but the newest KEEP - 1 set-up problems, and what JAX compiled for them."""
+    if len(_PROBLEMS) < KEEP:
+        return
+    while len(_PROBLEMS) >= KEEP:
+        _PROBLEMS.pop(next(iter(_PROBLEMS)))
+    gc.collect()
+    configured().clear_caches()
 
 
 def _local_copy(artifact, digest: str) -> Path:
