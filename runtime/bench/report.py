@@ -126,7 +126,7 @@ def _natural(name: str) -> tuple:
 def summary_table(recs: list[dict]) -> str:
     """A Markdown row per problem and planner cell: solved, median time to the (first) solution
     and IQR (an unsolved run counts as infinitely long), median actions and cost of the solved
-    runs, median setup, peak RSS, invalid plans and the mean load before the runs."""
+    runs, median setup, peak RSS, invalid plans and the median load before the runs."""
     rows = defaultdict(list)
     for r in recs:
         rows[(r["problem"], cell(r))].append(r)
