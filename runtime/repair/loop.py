@@ -31,7 +31,7 @@ from tmpc.runtime.repair.model import (
     signed,
 )
 from tmpc.runtime.repair.model import error as formula_error
-from tmpc.runtime.repair.search import ZERO, Problem, anchored, search
+from tmpc.runtime.repair.search import ZERO, ClauseGaps, Problem, anchored, search
 from tmpc.runtime.repair.store import Observation, RepairStep, Store
 from tmpc.runtime.repair.world import read_observations
 
@@ -208,9 +208,10 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
     others = order[len(unexpected):]
     held = list(rng.permutation(others)[:max(20, 2 * len(unexpected))])
     result = None
+    model = anchor(rw.target.start)
     for _round in range(4):
         prob = Problem(feats.take(fit), feats.take(held) if held else feats.take([]),
-                       rw.target.instances, anchor(rw.target.start))
+                       rw.target.instances, model)
         result = search(prob, current, time_limit=cfg.search_seconds, max_edits=cfg.max_edits)
         miss = np.flatnonzero(predicts(result.best.formula, feats) != feats.success)
         new = [i for i in miss if i not in set(fit)]
@@ -263,20 +264,11 @@ def refit(f: Formula, feats: Features, anchors: dict | None = None) -> Formula:
         moved = anchored(f, feats, th, anchors)
         if moved is not None:
             th = moved
-    lits = f.clauses[0]
-    holds = np.ones(len(feats), bool)
-    for lit in f.discrete:
-        holds &= feats.truth[lit.instance] == lit.positive
-    T = [feats.t[lit.instance] for lit in lits]
+    gap = ClauseGaps(f, feats)
     for _ in range(2):
-        for k, lit in enumerate(lits):
-            others = holds.copy()
-            for j in range(len(lits)):
-                if j != k:
-                    others &= T[j] <= th[j]
-            fails = T[k][others & ~feats.success]
+        for k, lit in enumerate(f.clauses[0]):
+            wins, fails = gap(k, th)
             lo_b, hi_b = lit.instance.template.bounds
-            wins = T[k][others & feats.success]
             lo = max(float(wins.max()) if len(wins) else lo_b, lo_b)
             if not len(fails):
                 # nothing outside restricts it: the model's value where the successes allow it
@@ -307,7 +299,7 @@ def run_loop(rw, store: Store, trial: int, source, start: Formula, cfg: LoopConf
              on_event=None) -> LoopResult:
     """Run (or resume, from what ``store`` holds for ``trial``) the repair loop."""
     scope = rw.scope
-    anchors = anchor(start)
+    anchors = anchor(rw.target.start)
     observations = store.observations(trial)
     steps = store.repairs(trial)
     current = parse_truth(steps[-1].formula, rw.target, scope) if steps else start

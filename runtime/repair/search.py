@@ -208,6 +208,27 @@ def _sweep(prob: Problem, f: Formula, x: np.ndarray, bounds, sweeps: int = 3) ->
     return x
 
 
+class ClauseGaps:
+    """A one-clause formula's literal k against ``feats``, the others held at parameters ``y``:
+    the feature values of literal k over the successes and the failures the discrete literals
+    and the other literals let through (its zero-error interval lies between them)."""
+
+    def __init__(self, f: Formula, feats: Features):
+        self.feats = feats
+        self.holds = np.ones(len(feats), bool)
+        for lit in f.discrete:
+            self.holds &= feats.truth[lit.instance] == lit.positive
+        self.T = [feats.t[lit.instance] for lit in f.clauses[0]]
+
+    def __call__(self, k: int, y) -> tuple[np.ndarray, np.ndarray]:
+        others = self.holds.copy()
+        for j, t in enumerate(self.T):
+            if j != k:
+                others &= t <= y[j]
+        ok = self.feats.success
+        return self.T[k][others & ok], self.T[k][others & ~ok]
+
+
 def deviation(f: Formula, anchor: dict) -> float:
     """How far ``f``'s parameters are from the model's (``anchor``), each difference over its
     template's range: the repair that keeps the model's values where the data allows ranks
@@ -233,10 +254,7 @@ def anchored(f: Formula, feats: Features, th: np.ndarray, anchor: dict) -> np.nd
     pin = [lit.instance in anchor and math.isinf(lit.instance.template.full) for lit in lits]
     if not any(pin) or all(pin):
         return None
-    holds = np.ones(len(feats), bool)
-    for lit in f.discrete:
-        holds &= feats.truth[lit.instance] == lit.positive
-    T = [feats.t[lit.instance] for lit in lits]
+    gap = ClauseGaps(f, feats)
     y = np.asarray(th, float).copy()
     for k, lit in enumerate(lits):
         if pin[k]:
@@ -245,11 +263,7 @@ def anchored(f: Formula, feats: Features, th: np.ndarray, anchor: dict) -> np.nd
         for k, lit in enumerate(lits):
             if pin[k]:
                 continue
-            others = holds.copy()
-            for j in range(len(lits)):
-                if j != k:
-                    others &= T[j] <= y[j]
-            wins, fails = T[k][others & feats.success], T[k][others & ~feats.success]
+            wins, fails = gap(k, y)
             lo = float(wins.max()) if len(wins) else lit.instance.template.bounds[0]
             hi = float(fails.min()) if len(fails) else math.inf
             if lo >= hi:
