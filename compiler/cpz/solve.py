@@ -1,9 +1,12 @@
 """Containment, distance, sampling, support and emptiness of CPZs (MATH.md §C.3), in JAX with x64.
 
-Every query is one jitted, vmapped solve over points x starts. Shapes are padded to power-of-two
-buckets (at least 4; padded factors, generators and constraints are zero and change nothing),
-and points go in batches of ``SMALL`` or ``CHUNK``, so calls with other sets or batch sizes reuse
-compiled code. JAX is configured and loaded on the first query (:mod:`tmpc.compiler.jaxcfg`),
+Every query is one jitted solve over points x starts. The Levenberg-Marquardt solve behind
+containment and distance is specialised to the set's structure when it is small (its exponent
+matrices are static, so each lane is an unrolled scalar program XLA fuses: ~10x the padded
+kernel's rate, measured); other sets and the other solves use vmapped kernels whose shapes are
+padded to power-of-two buckets (at least 4; padded factors, generators and constraints are zero
+and change nothing), so calls with other sets reuse compiled code. Points go in batches of
+``SMALL`` or ``CHUNK``. JAX is configured and loaded on the first query (:mod:`tmpc.compiler.jaxcfg`),
 not at import; z3 is loaded by :func:`is_empty` only.
 """
 
@@ -116,25 +119,33 @@ def _mono_jac(jnp, a, E, degree: int):
     return pre[-1] * P[-1], J
 
 
-def _spd_solve(jnp, M, r):
-    """``M^-1 r`` for a small symmetric positive definite M: an unrolled Cholesky up to 8 x 8
-    (under vmap that is elementwise work; ``jnp.linalg.solve`` was 10x slower for the 4 x 4
-    ball, measured), ``jnp.linalg.solve`` above (the unrolled 16 x 16 took 9 s to compile)."""
+def _cholesky_solve(jnp, M, r) -> list:
+    """``M^-1 r`` for a small symmetric positive definite M given by entries (``M[i][j]`` and
+    ``r[i]`` arrays of the same lanes): an unrolled Cholesky, elementwise work under vmap."""
     p = len(r)
-    if p > 8:
-        return jnp.linalg.solve(M, r)
     L = [[None] * p for _ in range(p)]
     for j in range(p):
-        L[j][j] = jnp.sqrt(M[j, j] - sum((L[j][k] ** 2 for k in range(j)), 0.0))
+        L[j][j] = jnp.sqrt(M[j][j] - sum((L[j][k] ** 2 for k in range(j)), 0.0))
         for i in range(j + 1, p):
-            L[i][j] = (M[i, j] - sum((L[i][k] * L[j][k] for k in range(j)), 0.0)) / L[j][j]
+            L[i][j] = (M[i][j] - sum((L[i][k] * L[j][k] for k in range(j)), 0.0)) / L[j][j]
     y = []
     for i in range(p):
         y.append((r[i] - sum((L[i][k] * y[k] for k in range(i)), 0.0)) / L[i][i])
     x = [None] * p
     for i in reversed(range(p)):
         x[i] = (y[i] - sum((L[k][i] * x[k] for k in range(i + 1, p)), 0.0)) / L[i][i]
-    return jnp.stack(x)
+    return x
+
+
+def _spd_solve(jnp, M, r):
+    """``M^-1 r`` for a small symmetric positive definite matrix M: :func:`_cholesky_solve` up
+    to 8 x 8 (``jnp.linalg.solve`` was 10x slower for the 4 x 4 ball under vmap, measured),
+    ``jnp.linalg.solve`` above (the unrolled 16 x 16 took 9 s to compile)."""
+    p = len(r)
+    if p > 8:
+        return jnp.linalg.solve(M, r)
+    return jnp.stack(_cholesky_solve(jnp, [[M[i, j] for j in range(p)] for i in range(p)],
+                                     [r[i] for i in range(p)]))
 
 
 @lru_cache(maxsize=None)
@@ -188,8 +199,152 @@ def _lm_kernel(degree: int):
     return jax.jit(lambda X, A0, rhos, *P: batched(A0, X, rhos, P))
 
 
+#: the structure-specialised kernel (:func:`_lm_unrolled`) is used up to this many factors; its
+#: Cholesky is unrolled (p^3 / 6 scalar ops), and its compile time grows with p
+UNROLL_P = 8
+
+
+def _unrolled_ok(S: CPZ) -> bool:
+    """Whether S's queries go through :func:`_lm_unrolled`: a few factors and a small model."""
+    return 0 < S.p <= UNROLL_P and S.n * S.h + S.m * S.q <= 256
+
+
+def _monomials_of(a, E, with_jac: bool):
+    """``(m, dm)`` of a static integer ``E (p, h)`` at the factor lanes ``a`` (a list of p
+    arrays): ``m[i]`` and ``dm[i][k]`` are lane arrays or the Python float 1.0 / None for a
+    constant one / a structural zero, so only E's non-zero entries cost anything."""
+    powers = {}
+
+    def power(k, e):
+        if e == 0:
+            return 1.0
+        if (k, e) not in powers:
+            powers[k, e] = a[k] if e == 1 else power(k, e - 1) * a[k]
+        return powers[k, e]
+
+    def product(factors):
+        out = 1.0
+        for v in factors:
+            out = v if isinstance(out, float) else (out if isinstance(v, float) else out * v)
+        return out
+
+    m, dm = [], []
+    for i in range(E.shape[1]):
+        col = [(k, int(E[k, i])) for k in range(E.shape[0]) if E[k, i] > 0]
+        m.append(product(power(k, e) for k, e in col))
+        if with_jac:
+            row = [None] * len(a)
+            for k, e in col:
+                rest = product(power(j, f) for j, f in col if j != k)
+                row[k] = e * product([power(k, e - 1), rest])
+            dm.append(row)
+    return m, dm
+
+
+def _combine(coef, terms, empty=None):
+    """``sum_i coef[i] * terms[i]`` over the pairs where neither is None (``coef`` a traced row
+    or a list of lane arrays); ``empty`` when there are none."""
+    out = empty
+    for i, t in enumerate(terms):
+        if t is None or coef[i] is None:
+            continue
+        v = coef[i] * t
+        out = v if out is None or (isinstance(out, float) and out == 0.0) else out + v
+    return out
+
+
+def _static(E: np.ndarray) -> tuple:
+    """A hashable copy of an integer exponent matrix: ``(shape, entries)``."""
+    return E.shape, tuple(int(v) for v in E.ravel())
+
+
+def _matrix(key: tuple) -> np.ndarray:
+    return np.array(key[1], dtype=np.int64).reshape(key[0])
+
+
+@lru_cache(maxsize=32)
+def _lm_unrolled(n: int, E_key: tuple, R_key: tuple):
+    """The LM kernel of :func:`_lm_kernel` specialised to one set structure (``E``, ``R`` and
+    the dimensions are static; ``c, G, A, b`` are arguments): every lane (point x start) is a
+    scalar program unrolled over E's and R's non-zero entries, so XLA fuses an iteration into a
+    few elementwise loops instead of batched small matrix products over padded shapes. Same
+    iteration, same results up to rounding."""
+    jax = configured()
+    jnp = jax.numpy
+    E, R = _matrix(E_key), _matrix(R_key)
+    p = E.shape[0]
+
+    def residual(a, x, w, c, G, A, b, jac: bool):
+        mE, dE = _monomials_of(a, E, jac)
+        mR, dR = _monomials_of(a, R, jac)
+        r, J = [], []
+        for j in range(n):
+            r.append(_combine(G[j], mE, 0.0) + c[j] - x[j])
+            if jac:
+                J.append([_combine(G[j], [row[k] for row in dE]) for k in range(p)])
+        for j in range(len(b)):
+            r.append(w * (_combine(A[j], mR, 0.0) - b[j]))
+            if jac:
+                J.append([None if t is None else w * t
+                          for t in (_combine(A[j], [row[k] for row in dR]) for k in range(p))])
+        return r, J
+
+    def iterate(a, mu, x, w, P):
+        r, J = residual(a, x, w, *P, True)
+        g = [_combine(r, [J[j][k] for j in range(len(r))]) for k in range(p)]
+        free = []
+        for k in range(p):
+            gk = jnp.zeros_like(a[k]) if g[k] is None else g[k]
+            # Active set: a factor at a bound whose descent would leave the box is frozen.
+            free.append(~(((a[k] <= -1) & (gk > 0)) | ((a[k] >= 1) & (gk < 0))))
+        Jf = [[None if J[j][k] is None else jnp.where(free[k], J[j][k], 0.0) for k in range(p)]
+              for j in range(len(r))]
+        H = [[None] * p for _ in range(p)]
+        for k in range(p):
+            for l in range(k + 1):
+                H[k][l] = H[l][k] = _combine([Jf[j][k] for j in range(len(r))],
+                                             [Jf[j][l] for j in range(len(r))],
+                                             jnp.zeros_like(mu))
+        rhs = [-_combine(r, [Jf[j][k] for j in range(len(r))], jnp.zeros_like(mu))
+               for k in range(p)]
+        # Marquardt scaling; zero columns (frozen) get 1 so the system stays regular.
+        M = [[H[k][l] if k != l else H[k][k] + mu * jnp.where(H[k][k] > 0, H[k][k], 1.0)
+              for l in range(p)] for k in range(p)]
+        step = _cholesky_solve(jnp, M, rhs)
+        trial = [jnp.clip(a[k] + step[k], -1.0, 1.0) for k in range(p)]
+        rt, _ = residual(trial, x, w, *P, False)
+        better = sum(v * v for v in rt) < sum(v * v for v in r)
+        mu = jnp.clip(jnp.where(better, mu * 0.3, mu * 10.0), 1e-12, 1e12)
+        return [jnp.where(better, t, v) for t, v in zip(trial, a)], mu
+
+    def run(X, A0, rhos, c, G, A, b):
+        B, K = X.shape[0], A0.shape[0]
+        x = [jnp.broadcast_to(X[:, j][:, None], (B, K)) for j in range(n)]
+        a = [jnp.broadcast_to(A0[:, k][None, :], (B, K)) for k in range(p)]
+        P = (c, G, A, b)
+
+        def level(a, rho):
+            w = jnp.sqrt(rho)
+            body = lambda _, s: iterate(*s, x, w, P)  # noqa: E731
+            return jax.lax.fori_loop(0, ITERS, body, (a, jnp.full((B, K), 1e-3)))[0], None
+
+        a, _ = jax.lax.scan(level, a, rhos)
+        r, _ = residual(a, x, 1.0, *P, False)
+        nf = jnp.sqrt(sum(v * v for v in r[:n]))
+        nh = jnp.sqrt(sum((v * v for v in r[n:]), jnp.zeros((B, K))))
+        return jnp.stack(a, -1), nf, nh
+
+    return jax.jit(run)
+
+
 def _solve(S: CPZ, P, X: np.ndarray, A0: np.ndarray, rhos: np.ndarray):
-    """The LM kernel for S (padded to ``P``) over the rows of ``X (N, n)``."""
+    """The LM kernel for S (padded to ``P``) over the rows of ``X (N, n)``: the specialised
+    :func:`_lm_unrolled` for small sets, the padded :func:`_lm_kernel` otherwise."""
+    if _unrolled_ok(S):
+        n, h, m, q = S.n, S.h, S.m, S.q
+        c, G, _, A, b, _ = P
+        kernel = _lm_unrolled(n, _static(S.E), _static(S.R))
+        return _chunked(kernel, X, A0[:, :S.p], rhos, c[:n], G[:n, :h], A[:m, :q], b[:m])
     Xp = np.zeros((len(X), len(P[0])))
     Xp[:, :X.shape[1]] = X
     return _chunked(_lm_kernel(_degree(S)), Xp, A0, rhos, *P)
