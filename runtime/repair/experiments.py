@@ -76,5 +76,6 @@ def run_experiment(exp: Experiment, rw, store, truth, make_source, cfg: LoopConf
                      "param_error": comparable(res.formula, truth),
                      "edits": sum(s.edits for s in res.repairs), "unexpected": res.unexpected,
                      "loop_seconds": [round(s.seconds, 4) for s in res.repairs],
+                     "loop_cpu_seconds": [round(s.cpu_seconds, 4) for s in res.repairs],
                      "observations": len(res.observations), "status": res.status})
     return {"experiment": exp.number, "truth": truth.text(), "trials": rows}, results

@@ -195,7 +195,7 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
                 effect: tuple) -> tuple[Formula, RepairStep, tuple]:
     """Repair ``current`` against every observation so far; returns the new formula, the step
     to store and the effect hypothesis in force."""
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     feats = rw.features_of(observations)
     wrong = predicts(current, feats) != feats.success
     unexpected = list(np.flatnonzero(wrong))
@@ -234,7 +234,8 @@ def repair_once(rw, observations: list[Observation], current: Formula, rng, cfg:
         kept, hypothesis, err = best, "constraint", constraint_error
     step = RepairStep(observations[-1].seq, kept.text(True), current.text(True), err,
                       hypothesis, len(best.history), result.evaluated, time.perf_counter() - t0,
-                      result.trace, [c.formula.text(True) for c in result.ties[:5]])
+                      result.trace, [c.formula.text(True) for c in result.ties[:5]],
+                      time.process_time() - cpu0)
     return kept, step, effect
 
 

@@ -100,13 +100,15 @@ def repair_table(reports: list[dict]) -> str:
     """A Markdown row per report: the README's table of repair experiments."""
     lines = ["| experiment | trials | structurally correct | parameter error: max / median "
              "(matching structure) | unexpected (median) | observations (median) | edits per "
-             "trial (median) | repair loop s: max / median |", "|---|---|---|---|---|---|---|---|"]
+             "trial (median) | repair loop s: max / median | repair loop CPU s: max / median |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for rep in reports:
         rows = rep.get("trials") or []
         if not rows:
             continue
         pe = [r["param_error"] for r in rows if r.get("param_error") is not None]
         loops = [s for r in rows for s in r.get("loop_seconds") or []]
+        cpu = [s for r in rows for s in r.get("loop_cpu_seconds") or []]
         med = (lambda xs, f="{:g}": "—" if not xs else f.format(float(np.median(xs))))
         obs = [r["observations"] for r in rows if r.get("observations") is not None]
         lines.append(
@@ -115,7 +117,8 @@ def repair_table(reports: list[dict]) -> str:
             + (f"{max(pe):.4f} / {float(np.median(pe)):.4f}" if pe else "—") + " | "
             f"{med([r['unexpected'] for r in rows])} | {med(obs)} | "
             f"{med([r['edits'] for r in rows])} | "
-            + (f"{max(loops):.2f} / {float(np.median(loops)):.3f}" if loops else "—") + " |")
+            + (f"{max(loops):.2f} / {float(np.median(loops)):.3f}" if loops else "—") + " | "
+            + (f"{max(cpu):.2f} / {float(np.median(cpu)):.3f}" if cpu else "—") + " |")
     return "\n".join(lines) + "\n"
 
 

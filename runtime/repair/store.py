@@ -30,7 +30,7 @@ CREATE TABLE IF NOT EXISTS repairs (
     id INTEGER PRIMARY KEY, trial INTEGER NOT NULL, observation INTEGER NOT NULL,
     formula TEXT NOT NULL, previous TEXT NOT NULL, error REAL NOT NULL, hypothesis TEXT NOT NULL,
     edits INTEGER NOT NULL, evaluated INTEGER NOT NULL, seconds REAL NOT NULL,
-    trace TEXT NOT NULL, ties TEXT NOT NULL);
+    trace TEXT NOT NULL, ties TEXT NOT NULL, cpu_seconds REAL NOT NULL DEFAULT 0);
 """
 
 
@@ -63,6 +63,8 @@ class RepairStep:
     seconds: float
     trace: list
     ties: list
+    #: the process's CPU time during the repair (every thread: JAX's and XLA's included)
+    cpu_seconds: float = 0.0
 
 
 class Store:
@@ -88,6 +90,10 @@ class Store:
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.execute("PRAGMA synchronous=FULL")
             self.db.executescript(_SCHEMA)
+            if "cpu_seconds" not in {r[1] for r in self.db.execute("PRAGMA table_info(repairs)")}:
+                # a store from before repairs recorded their CPU time
+                self.db.execute("ALTER TABLE repairs ADD COLUMN cpu_seconds REAL NOT NULL "
+                                "DEFAULT 0")
             self._check_meta({"format": FORMAT, **meta})
         except sqlite3.DatabaseError as exc:
             self.close()
@@ -138,10 +144,11 @@ class Store:
             self.db.execute("BEGIN IMMEDIATE")
             self.db.execute(
                 "INSERT INTO repairs (trial, observation, formula, previous, error, hypothesis, "
-                "edits, evaluated, seconds, trace, ties) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                "edits, evaluated, seconds, trace, ties, cpu_seconds) "
+                "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)",
                 (trial, step.observation, step.formula, step.previous, step.error, step.hypothesis,
                  step.edits, step.evaluated, step.seconds, json.dumps(step.trace),
-                 json.dumps(step.ties)))
+                 json.dumps(step.ties), step.cpu_seconds))
 
     # ---- reads ---------------------------------------------------------------------------------
     def observations(self, trial: int) -> list[Observation]:
@@ -155,9 +162,9 @@ class Store:
     def repairs(self, trial: int) -> list[RepairStep]:
         rows = self.db.execute(
             "SELECT observation, formula, previous, error, hypothesis, edits, evaluated, seconds, "
-            "trace, ties FROM repairs WHERE trial = ? ORDER BY id", (trial,))
-        return [RepairStep(o, f, b, e, h, ed, ev, s, json.loads(t), json.loads(ti))
-                for o, f, b, e, h, ed, ev, s, t, ti in rows]
+            "trace, ties, cpu_seconds FROM repairs WHERE trial = ? ORDER BY id", (trial,))
+        return [RepairStep(o, f, b, e, h, ed, ev, s, json.loads(t), json.loads(ti), cpu)
+                for o, f, b, e, h, ed, ev, s, t, ti, cpu in rows]
 
     def trials(self) -> list[int]:
         return [t for (t,) in self.db.execute(

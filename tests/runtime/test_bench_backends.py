@@ -208,7 +208,8 @@ def test_report_draws_error_over_edits_of_repair_reports(tmp_path):
     rep = {"experiment": 2, "truth": "(dist ?c ?g 0.1)", "trials": [
         {"seed": s, "final_formula": "(dist ?c ?g 0.1)", "structurally_correct": s != 2,
          "param_error": None if s == 2 else 0.001 * s, "edits": 3, "unexpected": 10,
-         "loop_seconds": [0.5, 1.5], "observations": 90 + s, "status": "stopped",
+         "loop_seconds": [0.5, 1.5], "loop_cpu_seconds": [0.25, 1.0 + s],
+         "observations": 90 + s, "status": "stopped",
          "repairs": [{"observation": 4, "error": 0.0, "edits": 2, "trace": [0.3, 0.01, 0.0],
                       "param_error": 0.02},
                      {"observation": 9, "error": 0.0, "edits": 1, "trace": [0.1, 0.0],
@@ -224,7 +225,7 @@ def test_report_draws_error_over_edits_of_repair_reports(tmp_path):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
     table = (tmp_path / "out" / "table.md").read_text()
     assert "| c1 | unified | 1/1 | 1.00 (1.00–1.00) |" in table
-    assert "| 2 | 3 | 2/3 | 0.0010 / 0.0005 | 10 | 91 | 3 | 1.50 / 1.000 |" in table
+    assert "| 2 | 3 | 2/3 | 0.0010 / 0.0005 | 10 | 91 | 3 | 1.50 / 1.000 | 3.00 / 0.625 |" in table
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 3      # success, size, error over edits
 

@@ -293,6 +293,23 @@ def test_a_store_is_locked_and_knows_its_domain(tmp_path):
     assert exc.value.diagnostics[0].code == "E840"
 
 
+def test_a_store_from_before_cpu_times_opens_and_keeps_its_repairs(tmp_path):
+    """Stores written before repairs recorded CPU time gain the column (0 for old rows)."""
+    from tmpc.runtime.repair.store import RepairStep
+
+    path = tmp_path / "old.sqlite"
+    with Store(path, {"domain": "pick"}) as store:
+        store.add_repair(0, RepairStep(1, "(a)", "(b)", 0.5, "constraint", 1, 3, 0.2, [0.5],
+                                       [], 0.1))
+    db = sqlite3.connect(path)
+    db.executescript("ALTER TABLE repairs DROP COLUMN cpu_seconds")       # the old schema
+    db.close()
+    with Store(path, {"domain": "pick"}) as store:
+        store.add_repair(0, RepairStep(2, "(c)", "(a)", 0.0, "constraint", 1, 3, 0.3, [0.0],
+                                       [], 0.25))
+        assert [(s.observation, s.cpu_seconds) for s in store.repairs(0)] == [(1, 0.0), (2, 0.25)]
+
+
 def test_sigkill_mid_loop_then_resume_keeps_every_observation(tmp_path):
     db = tmp_path / "s.sqlite"
     args = [sys.executable, "-m", "tmpc.runtime.cli", "repair", str(EXP1), "--action", "pick",
@@ -434,9 +451,10 @@ def test_the_experiment_command_writes_the_documented_report(tmp_path):
     assert report["experiment"] == 1
     (trial,) = report["trials"]
     assert set(trial) >= {"seed", "final_formula", "structurally_correct", "param_error",
-                          "edits", "unexpected", "loop_seconds"}
+                          "edits", "unexpected", "loop_seconds", "loop_cpu_seconds"}
     assert trial["structurally_correct"] is True and trial["param_error"] <= 0.01
     assert trial["unexpected"] == 5 and len(trial["loop_seconds"]) == 5
+    assert len(trial["loop_cpu_seconds"]) == 5 and sum(trial["loop_cpu_seconds"]) > 0
     # error over edits, from the file alone: one record per repair, each a non-increasing
     # trace of best errors ending at the repair's error, which explains the observations (0)
     assert len(trial["repairs"]) == 5
