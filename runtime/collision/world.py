@@ -181,6 +181,9 @@ class CollisionWorld:
         #: the state key whose non-moving objects' fcl transforms are set, and whether two of
         #: them collide there (:meth:`_constant_collision`)
         self._fixed: tuple | None = None
+        #: per state key: the non-moving objects' frames and transforms, and whether two of them
+        #: collide (a search alternates between a few modes: fcl answers each once)
+        self._fixed_of: dict = {}
 
     # -- construction -------------------------------------------------------------------------
 
@@ -598,11 +601,19 @@ class CollisionWorld:
         for this state already (``key``, :meth:`_placed`)."""
         if key is not None and self._fixed is not None and self._fixed[0] == key:
             return self._fixed[1]
-        frames, local = self.geom_frames(place)
+        known = self._fixed_of.get(key) if key is not None else None
+        frames, local = self.geom_frames(place) if known is None else known[:2]
         for k, g in enumerate(self.dynamic):
             if frames[k] < 0:
                 self._set(g, local[k])
-        hit = any(self._counts(self._depth(ga, gb)) for ga, gb in plan.ff)
+        if known is not None:
+            hit = known[2]
+        else:
+            hit = any(self._counts(self._depth(ga, gb)) for ga, gb in plan.ff)
+            if key is not None:
+                if len(self._fixed_of) >= 256:
+                    self._fixed_of.pop(next(iter(self._fixed_of)))
+                self._fixed_of[key] = (frames, local, hit)
         self._fixed = None if key is None else (key, hit)
         return hit
 
