@@ -6,8 +6,8 @@ matrices are static, so each lane is an unrolled scalar program XLA fuses: ~10x 
 kernel's rate, measured); other sets and the other solves use vmapped kernels whose shapes are
 padded to power-of-two buckets (at least 4; padded factors, generators and constraints are zero
 and change nothing), so calls with other sets reuse compiled code. Points go in batches of
-``SMALL`` or ``CHUNK``. JAX is configured and loaded on the first query (:mod:`tmpc.compiler.jaxcfg`),
-not at import; z3 is loaded by :func:`is_empty` only.
+``SMALL`` or ``CHUNK``. JAX is configured and loaded on the first query
+(:mod:`tmpc.compiler.jaxcfg`), not at import; z3 is loaded by :func:`is_empty` only.
 """
 
 from __future__ import annotations
@@ -211,8 +211,9 @@ def _unrolled_ok(S: CPZ) -> bool:
 
 def _monomials_of(a, E, with_jac: bool):
     """``(m, dm)`` of a static integer ``E (p, h)`` at the factor lanes ``a`` (a list of p
-    arrays): ``m[i]`` and ``dm[i][k]`` are lane arrays or the Python float 1.0 / None for a
-    constant one / a structural zero, so only E's non-zero entries cost anything."""
+    arrays): ``m[i]`` is a lane array or the Python float 1.0 (a constant monomial), ``dm[i][k]``
+    a lane array, a Python float (a constant derivative) or None (a structural zero), so only
+    E's non-zero entries cost anything."""
     powers = {}
 
     def power(k, e):
