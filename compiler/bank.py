@@ -28,7 +28,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from tmpc.compiler.jaxcfg import configured
+from tmpc.compiler.jaxcfg import configured, trim_heap
 from tmpc.compiler.robot import Frames
 
 #: one argument: (shape with "b" for the batch dimension, dtype name)
@@ -178,11 +178,15 @@ class BankFunction:
             if sub is not None and (self.bank._source is None or
                                     self.bank.has_exported(sub.key)):
                 return sub(*args)
-        if self._jitted is None:
+        fresh = self._jitted is None
+        if fresh:
             with self.bank._lock:            # warm-up threads: deserialize and count once
                 if self._jitted is None:
                     self._jitted = self.bank._resolve(self)
-        return self._jitted(*args)
+        out = self._jitted(*args)
+        if fresh:
+            trim_heap()                      # the compile's (or cache read's) freed buffers
+        return out
 
 
 def _serialize(jax, fn: BankFunction) -> bytes:

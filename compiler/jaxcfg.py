@@ -64,3 +64,24 @@ def configured():
         except OSError:
             pass   # a read-only home: run without the cache
     return jax
+
+
+@lru_cache(maxsize=1)
+def _libc():
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6")
+        return libc if hasattr(libc, "malloc_trim") else None
+    except OSError:
+        return None                      # not glibc (musl, macOS): nothing to trim
+
+
+def trim_heap() -> None:
+    """Give the C heap's free pages back to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
+    Loading an XLA executable from the compilation cache leaves ~10-20 MB of freed buffers in
+    the heap that glibc keeps; trimming after each load kept a warm run of tmit-star's clutter
+    pb_4 at a lower peak (measured: 448 -> 340 MB after the warm-up)."""
+    libc = _libc()
+    if libc is not None:
+        libc.malloc_trim(0)
+

@@ -274,3 +274,19 @@ def test_export_reports_each_kernel_as_it_goes():
     labels = {label for _, _, label in seen}
     assert {"projector pick", "projector place", "condition resting", "kinematics"} <= labels
     assert kernel_label("proj/action/pick@16") == "projector pick"
+
+
+def test_a_kernels_first_call_gives_the_heaps_free_pages_back(monkeypatch):
+    """Loading an executable leaves freed buffers in glibc's heap: the bank trims after each
+    kernel's first call (once per kernel, not on every call)."""
+    from tmpc.compiler import bank as bank_mod
+    from tmpc.compiler.jaxcfg import trim_heap
+
+    trim_heap()                                  # callable where glibc is not, too
+    trims = []
+    monkeypatch.setattr(bank_mod, "trim_heap", lambda: trims.append(1))
+    b = bank_mod.KernelBank()
+    f = b.function("test/double", lambda: (lambda x: 2 * x), ((("b", 3), "float64"),))
+    for _ in range(3):
+        np.testing.assert_allclose(np.asarray(f(np.ones((4, 3)))), 2.0)
+    assert len(trims) == 1
