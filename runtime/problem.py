@@ -394,19 +394,29 @@ class PlanningProblem:
         """Validity (k,) of the straight motions Q0[i] -> Q1[i] in ``mode``, all their states
         in one batched check (no early stop: for many short motions the per-call cost, not the
         states, dominates). ``ends``: check the end states too (else they are known valid)."""
-        segs = [self.collision.interpolate(a, b, resolution) for a, b in zip(Q0, Q1)]
-        if not ends:
-            segs = [s[1:-1] for s in segs]
-        lens = np.array([len(s) for s in segs])
-        if not lens.sum():
-            return np.ones(len(segs), bool)
+        return self.motions_valid_many([(mode, Q0, Q1)], resolution, ends)[0]
+
+    def motions_valid_many(self, items, resolution: float, ends: bool = False
+                           ) -> list[np.ndarray]:
+        """:meth:`motions_valid` of several ``(mode, Q0, Q1)``: every state of every mode in
+        one batched check, the kinematics shared (a search's lookahead spans a few modes)."""
+        groups, lens = [], []
+        for mode, Q0, Q1 in items:
+            segs = [self.collision.interpolate(a, b, resolution) for a, b in zip(Q0, Q1)]
+            if not ends:
+                segs = [s[1:-1] for s in segs]
+            lens.append(np.array([len(s) for s in segs], np.int64))
+            Q = np.concatenate(segs) if lens[-1].sum() else np.zeros((0, len(self.lower)))
+            groups.append((Q, mode.poses, mode.held))
         t = time.perf_counter()
-        ok = np.asarray(self.collision.check_batch(np.concatenate(segs), poses=mode.poses,
-                                                   attached=mode.held))
+        oks = self.collision.check_batches(groups)
         self.timers.collision += time.perf_counter() - t
-        ends = np.cumsum(lens)
-        bad = np.r_[0, np.cumsum(~ok)]                 # colliding states before each index
-        return bad[ends] - bad[ends - lens] == 0
+        out = []
+        for ok, n in zip(oks, lens):
+            ends_at = np.cumsum(n)
+            bad = np.r_[0, np.cumsum(~np.asarray(ok))]     # colliding states before each index
+            out.append(bad[ends_at] - bad[ends_at - n] == 0)
+        return out
 
     def uniform(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return rng.uniform(self.lower, self.upper, (n, len(self.lower)))

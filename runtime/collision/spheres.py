@@ -346,9 +346,10 @@ class FirstPass:
         c, h, r = box(geom.shape, geom.aabb_center, geom.aabb_half)
         return T[:3, :3], T[:3, :3] @ c + T[:3, 3], h, r
 
-    def candidates(self, Q: np.ndarray, plan: Plan) -> Candidates:
-        """The pass over states Q (B, n)."""
-        R, p = self.world.fk_frames(pad_batch(Q))
+    def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
+        """The pass over states Q (B, n); ``frames``: their kinematics when known (batch-last,
+        :meth:`CollisionWorld.check_batches`), else computed here."""
+        R, p = self.world.fk_frames(pad_batch(Q)) if frames is None else frames
         R, p = np.asarray(R)[plan.used][..., :len(Q)], np.asarray(p)[plan.used][..., :len(Q)]
         Rg, pg = R[plan.fpos], p[plan.fpos]                             # (M, 3, 3, B), (M, 3, B)
         bc = plan.ball_c[:, None, :, None]

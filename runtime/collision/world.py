@@ -528,6 +528,34 @@ class CollisionWorld:
             out[start + bad] = False
         return out
 
+    def check_batches(self, groups) -> list[np.ndarray]:
+        """:meth:`check_batch` of several groups ``(Q, poses, attached)`` (states of different
+        modes): the kinematics of all their states in shared calls (one per :data:`CHUNK`
+        states, not one per group at least), the object poses' stages per group."""
+        groups = [(self._Q(Q) if len(Q) else np.zeros((0, self.model.dof)), poses, attached)
+                  for Q, poses, attached in groups]
+        if self.first_pass() is None or len(groups) < 2:
+            return [self.check_batch(Q, poses, attached) for Q, poses, attached in groups]
+        allQ = np.concatenate([Q for Q, _, _ in groups])
+        R, p = [], []
+        for start in range(0, len(allQ), CHUNK):
+            chunk = allQ[start:start + CHUNK]
+            Rc, pc = self.fk_frames(pad_batch(chunk))
+            R.append(np.asarray(Rc)[..., :len(chunk)])
+            p.append(np.asarray(pc)[..., :len(chunk)])
+        R, p = np.concatenate(R, -1), np.concatenate(p, -1)
+        out, at = [], 0
+        for Q, poses, attached in groups:
+            ok = np.ones(len(Q), bool)
+            if len(Q):
+                key, (place, allowed) = self._placed(poses, attached)
+                frames = (R[..., at:at + len(Q)], p[..., at:at + len(Q)])
+                for start, bad in self._invalid_states(Q, place, allowed, False, key, frames):
+                    ok[start + bad] = False
+            out.append(ok)
+            at += len(Q)
+        return out
+
     def check_motion(self, q0, q1, resolution: float = 0.02, poses=None,
                      attached=None, details: bool = True) -> MotionReport:
         """Check the straight motion q0 -> q1 (wrapping coordinates the short way round) at
@@ -565,10 +593,13 @@ class CollisionWorld:
             self._first_pass = FirstPass(self)
         return self._first_pass
 
-    def _invalid_states(self, Q, place, allowed, first_state_only: bool, key=None):
+    def _invalid_states(self, Q, place, allowed, first_state_only: bool, key=None,
+                        frames=None):
         """Yield (chunk start, sorted indices of colliding states in the chunk); with
         ``first_state_only``, stop after the first colliding state. ``key``: the state's
-        :meth:`_placed` key (its batch plan and fixed objects are then reused)."""
+        :meth:`_placed` key (its batch plan and fixed objects are then reused). ``frames``:
+        the kinematics of Q, batch-last ``(R (F, 3, 3, B), p (F, 3, B))``, when known (the
+        first pass only)."""
         fp = self.first_pass()
         if fp is None:
             for start in range(0, len(Q), CHUNK):
@@ -588,7 +619,9 @@ class CollisionWorld:
             yield 0, np.arange(1 if first_state_only else len(Q))
             return
         for start in range(0, len(Q), CHUNK):
-            cand = fp.candidates(Q[start:start + CHUNK], plan)
+            cut = None if frames is None else \
+                tuple(f[..., start:start + CHUNK] for f in frames)
+            cand = fp.candidates(Q[start:start + CHUNK], plan, cut)
             bad = self._confirm(cand, plan, first_state_only)
             self.stats.add(len(cand.R[0, 0, 0]), cand, bad)
             yield start, bad

@@ -585,9 +585,10 @@ class OptimalPlanner:
             if self.bridge.get(u, (None,))[0] != v and key not in self._fine:
                 todo.setdefault(self.node_mode[u], []).append(key)
         good = True
-        for mid, keys in todo.items():
-            a, b = np.array(keys).T
-            ok = self.p.motions_valid(self.modes[mid], self.Q[a], self.Q[b], self.opt.resolution)
+        groups = [(mid, keys, np.array(keys).T) for mid, keys in todo.items()]
+        oks = self.p.motions_valid_many([(self.modes[mid], self.Q[a], self.Q[b])
+                                         for mid, _, (a, b) in groups], self.opt.resolution)
+        for (_, keys, _), ok in zip(groups, oks):
             self.counts["edges_confirmed"] += len(keys)
             for key, fine in zip(keys, ok.tolist()):
                 self._fine[key] = fine
@@ -619,17 +620,22 @@ class OptimalPlanner:
         for u, v in pairs:
             if self._valid(u, v) is None:
                 todo.setdefault(self.node_mode[u], {})[_key(u, v)] = None
+        groups, spent = [], False
         for mid, keys in todo.items():
-            keys = list(keys)
             if self._checks_left <= 0:
-                raise _OutOfChecks
+                spent = True               # the modes before this one are still checked
+                break
             self._checks_left -= len(keys)
-            a, b = np.array(keys).T
-            ok = self.p.motions_valid(self.modes[mid], self.Q[a], self.Q[b],
-                                      self.opt.coarse * self.opt.resolution)
+            groups.append((mid, list(keys)))
+        items = [(self.modes[mid], self.Q[a], self.Q[b])
+                 for mid, keys in groups for a, b in [np.array(keys).T]]
+        oks = self.p.motions_valid_many(items, self.opt.coarse * self.opt.resolution)
+        for (_, keys), ok in zip(groups, oks):
             self.counts["edges_checked"] += len(keys)
             for key, good in zip(keys, ok.tolist()):
                 self._mark(key, good)
+        if spent:
+            raise _OutOfChecks
 
     # ---- the loop ----------------------------------------------------------------------------
     def solve(self, time_limit: float, progress=None) -> OptimalResult:

@@ -318,6 +318,15 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
         truth = exact.check_batch(Q, attached=att)
         assert (batch == truth).all(), np.nonzero(batch != truth)
         assert 0.1 < (~truth).mean() < 0.9
+    # several modes in one call (the kinematics shared, chunks crossing group boundaries):
+    # each group's answer is exact fcl's for its own held objects and object poses
+    T = np.eye(4)
+    T[:3, 3] = (0.3, -0.2, 1.1)
+    moved = {"stick1": T}
+    groups = [(Q[:70], None, None), (Q[70:71], None, held), (Q[71:71], moved, None),
+              (Q[71:400], moved, held), (Q[400:420], None, None)]
+    for (G, poses, att), got in zip(groups, w.check_batches(groups)):
+        assert (got == exact.check_batch(G, poses=poses, attached=att)).all()
     # pair level, on 500 states: colliding pairs are a subset of the candidates
     fp = w.first_pass()
     place, allowed = w.placements(attached=held)
