@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import os
 from functools import lru_cache
 from pathlib import Path
@@ -69,7 +70,6 @@ def configured():
 @lru_cache(maxsize=1)
 def _libc():
     try:
-        import ctypes
         libc = ctypes.CDLL("libc.so.6")
         return libc if hasattr(libc, "malloc_trim") else None
     except OSError:
