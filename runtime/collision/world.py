@@ -353,7 +353,7 @@ class CollisionWorld:
         return place, allowed
 
     def _placed(self, poses, attached):
-        """(key, :meth:`placements`) of a state, remembered for the last 64 distinct states:
+        """(key, :meth:`placements`) of a state, remembered for the 256 most recent states:
         the key is the content of ``poses`` and ``attached``, so a caller may pass fresh or
         mutated dicts. Input :meth:`placements` rejects gets its error, uncached."""
         try:
@@ -363,12 +363,12 @@ class CollisionWorld:
                          for n, v in sorted((attached or {}).items())))
         except (TypeError, ValueError, IndexError):
             return None, self.placements(poses, attached)
-        got = self._placements.get(key)
+        got = self._placements.pop(key, None)
         if got is None:
             got = self.placements(poses, attached)
-            if len(self._placements) >= 64:
+            if len(self._placements) >= 256:         # least recently used out
                 self._placements.pop(next(iter(self._placements)))
-            self._placements[key] = got
+        self._placements[key] = got
         return key, got
 
     def _hand(self, frame: int) -> list[int]:
