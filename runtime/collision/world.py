@@ -537,6 +537,8 @@ class CollisionWorld:
         if self.first_pass() is None or len(groups) < 2:
             return [self.check_batch(Q, poses, attached) for Q, poses, attached in groups]
         allQ = np.concatenate([Q for Q, _, _ in groups])
+        if not len(allQ):
+            return [np.ones(0, bool) for _ in groups]
         R, p = [], []
         for start in range(0, len(allQ), CHUNK):
             chunk = allQ[start:start + CHUNK]

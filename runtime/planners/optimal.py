@@ -555,12 +555,13 @@ class OptimalPlanner:
         and the search goes on: every edge of a reported path is valid at the resolution."""
         depth = np.array([self.depth[m] for m in self.node_mode])
         self._checks_left = self.opt.search_budget or math.inf
+        lists = adjacency(g, h)
         while True:
             # until a first solution, weighted (ABIT*'s inflation): found with fewer edge
             # checks; every later search is exact, so the anytime costs reach the optimum
             weight = self.opt.inflation if self.best_path is None else 1.0
             try:
-                cost, path, closed = lazy_astar(g, h, 0, self.goals, self._valid,
+                cost, path, closed = lazy_astar(lists, h, 0, self.goals, self._valid,
                                                 self.best_cost, self._check, weight=weight)
             except _OutOfChecks:
                 self.counts["searches_cut"] += 1
@@ -722,10 +723,13 @@ def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.i
     parents): the cheapest path whose edges are all valid (with ``weight`` 1), or (inf, None,
     parents) when none beats ``bound``; ``parents`` maps every closed vertex to its parent (-1
     for the start)."""
-    indptr, ind, data = g.indptr, g.indices, g.data
+    # Python lists: the loop reads them element by element (numpy scalars cost several times
+    # more per read); ``g`` may be the (indptr, indices, data, h) lists of :func:`adjacency`
+    indptr, ind, data, h = g if isinstance(g, tuple) else adjacency(g, h)
     closed: dict[int, int] = {}
-    if not np.isfinite(h[start]):
-        return math.inf, None, closed
+    inf = math.inf
+    if h[start] == inf:
+        return inf, None, closed
     heap = [(weight * float(h[start]), 0.0, 0, start, -1)]
     count = 0
     while heap:
@@ -748,14 +752,22 @@ def lazy_astar(g, h: np.ndarray, start: int, goals, valid, bound: float = math.i
         if v in goals:
             return gv, _chain(closed, v), closed
         for a in range(indptr[v], indptr[v + 1]):
-            w = int(ind[a])
-            if w in closed or not np.isfinite(h[w]):
+            w = ind[a]
+            hw = h[w]
+            if hw == inf or w in closed:
                 continue
-            ng = gv + float(data[a])
-            if ng + h[w] < bound:
+            ng = gv + data[a]
+            if ng + hw < bound:
                 count += 1
-                heapq.heappush(heap, (ng + weight * h[w], ng, count, w, v))
-    return math.inf, None, closed
+                heapq.heappush(heap, (ng + weight * hw, ng, count, w, v))
+    return inf, None, closed
+
+
+def adjacency(g, h: np.ndarray) -> tuple[list, list, list, list]:
+    """The CSR graph ``g`` and the heuristic ``h`` as Python lists, for :func:`lazy_astar`
+    (made once for the searches over one graph)."""
+    return g.indptr.tolist(), g.indices.tolist(), g.data.tolist(), \
+        np.asarray(h, float).tolist()
 
 
 def _pad(a: np.ndarray, width: int, value=0) -> np.ndarray:

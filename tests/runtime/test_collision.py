@@ -327,6 +327,8 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
               (Q[71:400], moved, held), (Q[400:420], None, None)]
     for (G, poses, att), got in zip(groups, w.check_batches(groups)):
         assert (got == exact.check_batch(G, poses=poses, attached=att)).all()
+    assert [len(ok) for ok in w.check_batches([(Q[:0], None, None), (Q[:0], moved, held)])] \
+        == [0, 0]
     # pair level, on 500 states: colliding pairs are a subset of the candidates
     fp = w.first_pass()
     place, allowed = w.placements(attached=held)
