@@ -14,9 +14,10 @@ from dataclasses import dataclass, field
 from tmpc.lang import ast as A
 from tmpc.lang import symbols as K
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, warning
-from tmpc.lang.reader_common import describe, head, is_keyword, is_sym, suggest, sym
+from tmpc.lang.columns import InitFacts
+from tmpc.lang.reader_common import NUMBER_RE, describe, head, is_keyword, is_sym, suggest, sym
 from tmpc.lang.reader_formulas import FormulaReader
-from tmpc.lang.sexpr import SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
+from tmpc.lang.sexpr import CLOSE, OPEN, SAtom, SExpr, SexprDoc, SList, Packed, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile, Span
 
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
@@ -441,6 +442,8 @@ class Reader(FormulaReader):
     def problem(self, name: A.Name, x: SList) -> A.Problem:
         allowed = ("", ":domain", ":requirements", ":objects", ":init", ":goal", ":metric")
         dom, reqs, objs, init, goal, metric = None, [], [], [], None, None
+        objs_parts: list = []
+        init_parts: list = []
         for kw, sec in self._sections(x, allowed, DOMAIN_ONLY, "problem"):
             body = sec.items[1:]
             if kw == ":domain":
@@ -451,9 +454,10 @@ class Reader(FormulaReader):
             elif kw == ":requirements":
                 reqs += self.requirements(body)
             elif kw == ":objects":
-                objs += self.typed_list(body, False, "`:objects`")
+                objs_parts.append(self.typed_list(body, False, "`:objects`"))
             elif kw == ":init":
-                init += [i for i in (self.init_item(b) for b in body) if i]
+                init_parts.append(self.init_facts(body) if isinstance(body, Packed) else
+                                  tuple(i for i in (self.init_item(b) for b in body) if i))
             elif kw == ":goal":
                 if len(body) != 1:
                     self.err("E111", "`:goal` takes one formula (wrap several in `(and ...)`)",
@@ -462,8 +466,48 @@ class Reader(FormulaReader):
                     goal = self.formula(body[0])
             elif kw == ":metric":
                 metric = self.metric(sec)
-        return A.Problem(name, dom, tuple(reqs), tuple(objs), tuple(init), goal, metric,
-                         span=x.span)
+        # one section (the usual case) stays as the reader made it, maybe as columns
+        objs = objs_parts[0] if len(objs_parts) == 1 else tuple(o for p in objs_parts for o in p)
+        init = init_parts[0] if len(init_parts) == 1 else tuple(i for p in init_parts for i in p)
+        return A.Problem(name, dom, tuple(reqs), objs, init, goal, metric, span=x.span)
+
+    def init_facts(self, body: Packed) -> InitFacts:
+        """`:init` of a large problem: each fact `(p a b)` of plain names stays an index into
+        the s-expression columns (:mod:`tmpc.lang.columns`); anything else is read by
+        :meth:`init_item`."""
+        out = InitFacts(body)
+        first, sym, names = body.first, body.sym, body.names
+        preds: dict[int, bool] = {}
+        args: dict[int, bool] = {}
+        for k in range(body.lo, body.hi):
+            t, end = first[k], first[k + 1]
+            plain = end - t >= 3 and sym[t] == OPEN
+            if plain and sym[t + 2] == OPEN:
+                # `(= (f a b) 3)`: its function as a fact's predicate, then a number
+                plain = end - t >= 7 and names[sym[t + 1]] == "=" and sym[end - 3] == CLOSE \
+                    and sym[end - 2] >= 0 and NUMBER_RE.match(names[sym[end - 2]]) is not None
+                t, end = t + 2, end - 2
+            if plain:
+                s = sym[t + 1]
+                ok = preds.get(s)
+                if ok is None:
+                    ok = preds[s] = s >= 0 and _plain_pred(names[s])
+                plain = ok
+                for i in range(t + 2, end - 1):
+                    if not plain:
+                        break
+                    s = sym[i]
+                    ok = args.get(s)
+                    if ok is None:
+                        ok = args[s] = s >= 0 and _plain_arg(names[s])
+                    plain = ok
+            if plain:
+                out.ref.append(k)
+            else:
+                item = self.init_item(body.at(k))
+                if item:
+                    out.add_other(item)
+        return out
 
     def init_item(self, x: SExpr) -> A.InitItem | None:
         if not isinstance(x, SList) or not x.items:
@@ -496,6 +540,17 @@ class Reader(FormulaReader):
 
 
 # ---------------------------------------------------------------------------------------------
+
+
+def _plain_pred(text: str) -> bool:
+    """A fact's head that :meth:`Reader.init_item` reads as a predicate name of an atom."""
+    return text[0] not in '"?' and text.lower() not in ("=", "not") and \
+        NUMBER_RE.match(text) is None
+
+
+def _plain_arg(text: str) -> bool:
+    """An argument :meth:`Reader.term` reads as a constant."""
+    return text[0] not in '"?:'
 
 
 def _is_annotation_start(it: SExpr) -> bool:
