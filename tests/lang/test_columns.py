@@ -82,3 +82,16 @@ def test_corpus_reads_the_same_packed(path: Path, monkeypatch):
     plain, packed = _parse(text, False, monkeypatch), _parse(text, True, monkeypatch)
     assert _nodes(packed.definitions, []) == _nodes(plain.definitions, [])
     assert packed.diagnostics == plain.diagnostics
+
+
+def test_packed_init_equality_compares_values_not_layout(monkeypatch):
+    def init(facts: str):
+        text = f"(define (problem q) (:domain d) (:init {facts * 20}))"
+        return _parse(text, True, monkeypatch).definitions[0].init
+    a, b = init("(= (weight p1) 3) (at p1 l1) "), init("(= (WEIGHT p1)   3.0)\n(at p1 l1)")
+    assert isinstance(a, InitFacts) and isinstance(b, InitFacts)
+    assert a != b                                       # `WEIGHT` is spelled differently
+    assert init("(= (weight p1) 3) (at p1 l1) ") == init("(= (weight p1) 3.0)\n(at  p1 l1)")
+    assert init("(at p1 l1) ") != init("(at p1 l2) ")
+    assert init("(at p1 l1) ") == tuple(init("(at p1 l1) "))
+    assert init("(at p1 l1) ") != init("(at p1 ?l) ")       # packed against built
