@@ -126,8 +126,26 @@ class InitFacts(_Columns):
                 yield j, False, sym[t + 1:end - 1]
 
     def key(self, j: int):
+        """A packed fact's texts (and a numeric fact's value): what its node's equality
+        compares, without the node."""
         k = self.ref[j]
-        return self.others[j] if k < 0 else self.build(j, k, spans=False)
+        if k < 0:
+            return self.others[j]
+        src = self.src
+        names, sym = src.names, src.sym
+        t, end = src.first[k], src.first[k + 1]
+        if sym[t + 2] == OPEN:
+            return (True, tuple([names[s] for s in sym[t + 3:end - 3]]),
+                    float(names[sym[end - 2]]))
+        return (False, tuple([names[s] for s in sym[t + 1:end - 1]]))
+
+    def __eq__(self, other) -> bool:
+        if type(other) is InitFacts and len(other) == len(self) and \
+                any((a < 0) != (b < 0) for a, b in zip(self.ref, other.ref)):
+            return all(a == b for a, b in zip(self, other))     # packed against built: nodes
+        return super().__eq__(other)
+
+    __hash__ = _Columns.__hash__
 
 
 def _no_span(t: int) -> None:
