@@ -14,6 +14,7 @@ import bisect
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from itertools import chain
+from typing import Any
 
 from tmpc.lang.reader_common import head, is_keyword, sym
 from tmpc.lang.sexpr import Comment, SAtom, SExpr, SexprDoc, SList
@@ -196,7 +197,12 @@ class Formatter:
         first_end = items[n_head - 1].span.end if n_head else x.span.start + 1
         end = x.close.start if x.close else x.span.end
         rest = items[n_head:]
-        groups = iter(self.group(rest, h))
+        if h in TYPED_SECTIONS or (h or "").startswith("?"):
+            rest = list(self.group(rest, h))      # typed groups, computed once
+            h_rest = _GROUPED
+        else:
+            h_rest = h
+        groups = iter(self.group(rest, h_rest))
         g0, g1 = next(groups, None), next(groups, None)
         if n_head and g0 is not None and g1 is None and isinstance(g0, SList) and \
                 (h or "")[:1] == ":" and h not in ALWAYS_BREAK and \
@@ -213,12 +219,12 @@ class Formatter:
                 more = (l0,) if l1 is None else (l0, l1)
                 yield from _on_last(chain(more, lines), _close)
                 return
-        if g0 is not None and all(isinstance(g, SAtom) for g in self.group(rest, h)) and \
+        if g0 is not None and all(isinstance(g, SAtom) for g in self.group(rest, h_rest)) and \
                 not self._comments_between(first_end, end):
-            yield from self.filled(header, self.group(rest, h), indent, trail)
+            yield from self.filled(header, self.group(rest, h_rest), indent, trail)
             return
-        body = self.children(self.group(rest, h), first_end, first_end, end, indent + INDENT,
-                             trail + 1)
+        body = self.children(self.group(rest, h_rest), first_end, first_end, end,
+                             indent + INDENT, trail + 1)
         opening = _Line(indent, "(" + " ".join(header))
         # a comment on the opening line trails it
         b0 = next(body, None)
@@ -284,6 +290,9 @@ class Formatter:
     def group(self, items, h: str | None) -> Iterator:
         """Keep `:key value` pairs and typed groups together as tuples (lazily: ``items`` may
         be a large packed list)."""
+        if h is _GROUPED:
+            yield from items
+            return
         if h in TYPED_SECTIONS or (h or "").startswith("?"):
             for g in _typed_groups(items):
                 yield from self._split_at_comments(g)
@@ -355,6 +364,8 @@ def _with_last(items: Iterable) -> Iterator[tuple]:
 
 
 _NONE = object()
+#: :meth:`Formatter.group` of items that are groups already
+_GROUPED: Any = object()
 
 
 def _on_last(lines: Iterable[_Line], change) -> Iterator[_Line]:

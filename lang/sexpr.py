@@ -156,6 +156,12 @@ class Packed(Sequence):
         sym, pos, names, path = self.sym, self.pos, self.names, self.path
         if end - t == 1:
             return self.atom(t)
+        inner = sym[t + 1:end - 1]
+        if not inner or min(inner) >= 0:                  # a list of atoms (a fact)
+            return SList(tuple([SAtom(names[s], "string" if names[s][0] == '"' else "symbol",
+                                      Span(path, p, p + len(names[s])))
+                                for s, p in zip(inner, pos[t + 1:end - 1])]),
+                         Span(path, pos[t], pos[end - 1] + 1), True)
         stack: list[list] = []
         opens: list[int] = []
         for i in range(t, end):
