@@ -15,9 +15,18 @@ from tmpc.lang import ast as A
 from tmpc.lang import symbols as K
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, warning
 from tmpc.lang.columns import InitFacts
-from tmpc.lang.reader_common import NUMBER_RE, describe, head, is_keyword, is_sym, suggest, sym
+from tmpc.lang.reader_common import (
+    describe,
+    head,
+    is_keyword,
+    is_sym,
+    packed_facts,
+    plain_init_pred,
+    suggest,
+    sym,
+)
 from tmpc.lang.reader_formulas import FormulaReader
-from tmpc.lang.sexpr import CLOSE, OPEN, SAtom, SExpr, SexprDoc, SList, Packed, depth_error, parse_sexpr
+from tmpc.lang.sexpr import Packed, SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile, Span
 
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
@@ -472,42 +481,10 @@ class Reader(FormulaReader):
         return A.Problem(name, dom, tuple(reqs), objs, init, goal, metric, span=x.span)
 
     def init_facts(self, body: Packed) -> InitFacts:
-        """`:init` of a large problem: each fact `(p a b)` of plain names stays an index into
-        the s-expression columns (:mod:`tmpc.lang.columns`); anything else is read by
-        :meth:`init_item`."""
-        out = InitFacts(body)
-        first, sym, names = body.first, body.sym, body.names
-        preds: dict[int, bool] = {}
-        args: dict[int, bool] = {}
-        for k in range(body.lo, body.hi):
-            t, end = first[k], first[k + 1]
-            plain = end - t >= 3 and sym[t] == OPEN
-            if plain and sym[t + 2] == OPEN:
-                # `(= (f a b) 3)`: its function as a fact's predicate, then a number
-                plain = end - t >= 7 and names[sym[t + 1]] == "=" and sym[end - 3] == CLOSE \
-                    and sym[end - 2] >= 0 and NUMBER_RE.match(names[sym[end - 2]]) is not None
-                t, end = t + 2, end - 2
-            if plain:
-                s = sym[t + 1]
-                ok = preds.get(s)
-                if ok is None:
-                    ok = preds[s] = s >= 0 and _plain_pred(names[s])
-                plain = ok
-                for i in range(t + 2, end - 1):
-                    if not plain:
-                        break
-                    s = sym[i]
-                    ok = args.get(s)
-                    if ok is None:
-                        ok = args[s] = s >= 0 and _plain_arg(names[s])
-                    plain = ok
-            if plain:
-                out.ref.append(k)
-            else:
-                item = self.init_item(body.at(k))
-                if item:
-                    out.add_other(item)
-        return out
+        """`:init` of a large problem: each fact `(p a b)` or `(= (f a b) 3)` of plain names
+        stays an index into the s-expression columns (:mod:`tmpc.lang.columns`); anything else
+        is read by :meth:`init_item`."""
+        return packed_facts(body, plain_init_pred, True, self.init_item)
 
     def init_item(self, x: SExpr) -> A.InitItem | None:
         if not isinstance(x, SList) or not x.items:
@@ -540,17 +517,6 @@ class Reader(FormulaReader):
 
 
 # ---------------------------------------------------------------------------------------------
-
-
-def _plain_pred(text: str) -> bool:
-    """A fact's head that :meth:`Reader.init_item` reads as a predicate name of an atom."""
-    return text[0] not in '"?' and text.lower() not in ("=", "not") and \
-        NUMBER_RE.match(text) is None
-
-
-def _plain_arg(text: str) -> bool:
-    """An argument :meth:`Reader.term` reads as a constant."""
-    return text[0] not in '"?:'
 
 
 def _is_annotation_start(it: SExpr) -> bool:

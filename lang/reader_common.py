@@ -9,9 +9,10 @@ from typing import Iterable, Sequence
 from array import array
 
 from tmpc.lang import ast as A
-from tmpc.lang.columns import TypedNames
+from tmpc.lang.columns import InitFacts, TypedNames
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, error, warning
-from tmpc.lang.sexpr import Packed, SAtom, SExpr, SList
+from tmpc.lang.sexpr import CLOSE, OPEN, Packed, SAtom, SExpr, SList
+from tmpc.lang.symbols import NUMERIC_COMPARISONS
 from tmpc.lang.source import Span
 
 NUMBER_RE = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\Z")
@@ -262,3 +263,63 @@ def _type_text(t: A.TypeRef) -> str:
     if len(t.names) == 1:
         return t.names[0].text
     return "(either " + " ".join(n.text for n in t.names) + ")"
+
+
+def packed_facts(body: Packed, plain_head, numeric: bool, read) -> InitFacts:
+    """The facts of ``body`` (a large `:init`, or a large goal's `and`): a list of plain names
+    whose head ``plain_head`` accepts (``numeric``: or `(= (f a b) NUMBER)`) stays an index into
+    the columns; any other child is read by ``read`` (kept unless None)."""
+    out = InitFacts(body)
+    first, sym, names = body.first, body.sym, body.names
+    preds: dict[int, bool] = {}
+    args: dict[int, bool] = {}
+    for k in range(body.lo, body.hi):
+        t, end = first[k], first[k + 1]
+        plain = end - t >= 3 and sym[t] == OPEN
+        if plain and sym[t + 2] == OPEN:
+            # `(= (f a b) 3)`: its function as a fact's predicate, then a number
+            plain = numeric and end - t >= 7 and sym[t + 1] >= 0 and names[sym[t + 1]] == "=" \
+                and sym[end - 3] == CLOSE and sym[end - 2] >= 0 \
+                and NUMBER_RE.match(names[sym[end - 2]]) is not None
+            t, end = t + 2, end - 2
+        if plain:
+            s = sym[t + 1]
+            ok = preds.get(s)
+            if ok is None:
+                ok = preds[s] = s >= 0 and plain_head(names[s])
+            plain = ok
+            for i in range(t + 2, end - 1):
+                if not plain:
+                    break
+                s = sym[i]
+                ok = args.get(s)
+                if ok is None:
+                    ok = args[s] = s >= 0 and _plain_arg(names[s])
+                plain = ok
+        if plain:
+            out.ref.append(k)
+        else:
+            item = read(body.at(k))
+            if item is not None:
+                out.add_other(item)
+    return out
+
+
+def plain_init_pred(text: str) -> bool:
+    """A fact's head that :meth:`Reader.init_item` reads as a predicate name of an atom."""
+    return text[0] not in '"?' and text.lower() not in ("=", "not") and \
+        NUMBER_RE.match(text) is None
+
+
+def plain_goal_pred(text: str) -> bool:
+    """An atom's head :meth:`FormulaReader.formula` reads as a predicate name."""
+    return text[0] not in '"?:' and text.lower() not in GOAL_HEADS and \
+        NUMBER_RE.match(text) is None
+
+
+GOAL_HEADS = frozenset({"and", "or", "not", "imply", "exists", "forall", *NUMERIC_COMPARISONS})
+
+
+def _plain_arg(text: str) -> bool:
+    """An argument :meth:`Reader.term` reads as a constant."""
+    return text[0] not in '"?:'

@@ -28,7 +28,10 @@ ODD = """(define (problem odd) (:domain big-logistics)
     (not (at p5 l1)) (at ?x l1) (at p6 :k) (at p7 "l1") (at (p8) l1) () x "str" (unknown a b)
     (route t1 l1 L2) (road l1 l3) (delivered p9) (delivered p10) ; a comment
     (at p11 l3) (at p12 l3) (weight p1) (= (weight p4) 7) (at p1 l1)   (delivered q1))
-  (:goal (and (delivered p1))))
+  (:goal (and (delivered p1) (at p2 l1) (not (at p3 l1)) (= p1 p2) (< (weight p1) 3) (?x)
+    (and (delivered p2)) (delivered ?v) (unknown a) (at p4 :k) ("s") () (or (delivered p5))
+    (delivered p6) (AT p7 L2) (at p8) (exists (?p - package) (delivered ?p)) (delivered p9)
+    (= (weight p1) 3) (:goal) (delivered p10 p11) (route t1 l1 l3) (at t1 l1))))
 """
 
 
@@ -57,6 +60,8 @@ def test_columns_read_as_the_tree(text, monkeypatch):
     plain, packed = _parse(text, False, monkeypatch), _parse(text, True, monkeypatch)
     problem = packed.definitions[0]
     assert isinstance(problem.init, InitFacts) and isinstance(problem.objects, TypedNames)
+    if text is ODD:
+        assert isinstance(problem.goal.parts, InitFacts)
     assert _nodes(packed.sexpr.items, []) == _nodes(plain.sexpr.items, [])
     assert _nodes(packed.definitions, []) == _nodes(plain.definitions, [])
     assert packed.definitions == plain.definitions and plain.definitions == packed.definitions
