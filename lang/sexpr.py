@@ -436,7 +436,9 @@ def _scan(source: SourceFile) -> SexprDoc | None:
         top = stack[-1]
         if type(top) is list:
             top.append(x)
-            if len(top) >= PACK_AT and len(stack) > 1:
+            # sections and deeper (`:init`, `:objects`, a goal's `and`), not the top level nor
+            # a `define`'s children (a large domain's actions are read whole anyway)
+            if len(top) >= PACK_AT and len(stack) > 2:
                 packed = Packed(path, names)
                 for y in top:
                     packed.add(y, ids)
