@@ -24,7 +24,8 @@ class _Columns(Sequence):
 
     def __init__(self, src: Packed):
         self.src = src
-        self.ref = array("q")
+        # a child's index, or -1 (4 bytes when the offsets are: fewer children than characters)
+        self.ref = array("i" if src.pos.itemsize == 4 else "q")
         self.others: dict[int, object] = {}
 
     def add_other(self, x) -> None:

@@ -73,10 +73,12 @@ class Packed(Sequence):
 
     __slots__ = ("path", "names", "sym", "pos", "first", "others", "lo", "hi")
 
-    def __init__(self, path: str, names: list[str]):
+    def __init__(self, path: str, names: list[str], offsets: str = "q"):
+        """``offsets``: the array type of offsets and token indices (``"I"``, 4 bytes, in a
+        text under 4 G characters)."""
         self.path, self.names = path, names
-        self.sym, self.pos = array("i"), array("q")
-        self.first = array("q", [0])
+        self.sym, self.pos = array("i"), array(offsets)
+        self.first = array(offsets, [0])
         self.others: dict[int, SExpr] = {}
         self.lo, self.hi = 0, 0
 
@@ -383,6 +385,7 @@ def _scan(source: SourceFile) -> SexprDoc | None:
     # hundreds of thousands of times), and its id in the columns of packed lists
     names: list[str] = []
     ids: dict[str, int] = {}
+    offsets = "I" if len(text) < 2 ** 32 else "q"
     # inside a packed list: its columns, and the depth inside its current child
     packed: Packed | None = None
     depth = 0
@@ -439,7 +442,7 @@ def _scan(source: SourceFile) -> SexprDoc | None:
             # sections and deeper (`:init`, `:objects`, a goal's `and`), not the top level nor
             # a `define`'s children (a large domain's actions are read whole anyway)
             if len(top) >= PACK_AT and len(stack) > 2:
-                packed = Packed(path, names)
+                packed = Packed(path, names, offsets)
                 for y in top:
                     packed.add(y, ids)
                 stack[-1] = packed

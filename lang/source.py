@@ -38,7 +38,7 @@ class SourceFile:
     _line_starts: array = field(default_factory=lambda: array("q"), repr=False)
 
     def __post_init__(self) -> None:
-        starts = array("q", [0])
+        starts = array("I" if len(self.text) < 2 ** 32 else "q", [0])
         find = self.text.find
         i = find("\n")
         while i != -1:
