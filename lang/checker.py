@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from tmpc.lang import ast as A
 from tmpc.lang import symbols as K
 from tmpc.lang.checker_expr import ExprChecker
+from tmpc.lang.columns import InitFacts, TypedNames
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, error, warning
 from tmpc.lang.reader_common import suggest
 from tmpc.lang.scope import OBJECT, ObjectInfo, Scope, type_keys
@@ -65,6 +66,7 @@ class Checker:
         self.uses = _Uses()
         self.legacy = domain.dialect in LEGACY
         self.exprs = ExprChecker(self.scope, self.sink)
+        self._type_sets: dict[tuple[str, ...], tuple[str, ...]] = {}
 
     # ---- driver --------------------------------------------------------------------------
     def run(self) -> list[Diagnostic]:
@@ -201,21 +203,55 @@ class Checker:
         return out
 
     def declare_objects(self, items: tuple[A.Typed, ...], constant: bool) -> None:
+        if isinstance(items, TypedNames):
+            self._declare_packed_objects(items, constant)
+            return
         for o in items:
-            if o.type is not None:
-                for n in o.type.names:
-                    self.require_type(n)
-            prev = self.scope.objects.get(o.name.key)
-            if prev is not None:
-                if prev.constant and not constant:
-                    self.sink.add(warning("W010", f"object `{o.name.text}` repeats a domain "
-                                          "constant", o.name.span,
-                                          related=[Related(prev.name.span, "the constant")]))
-                    continue
-                self.sink.add(error("E201", f"object `{o.name.text}` is declared twice",
-                                    o.name.span, related=[Related(prev.name.span, "first here")]))
+            self._declare_object(o, constant)
+
+    def _declare_object(self, o: A.Typed, constant: bool) -> None:
+        if o.type is not None:
+            for n in o.type.names:
+                self.require_type(n)
+        prev = self.scope.objects.get(o.name.key)
+        if prev is not None:
+            if prev.constant and not constant:
+                self.sink.add(warning("W010", f"object `{o.name.text}` repeats a domain "
+                                      "constant", o.name.span,
+                                      related=[Related(prev.name.span, "the constant")]))
+                return
+            self.sink.add(error("E201", f"object `{o.name.text}` is declared twice",
+                                o.name.span, related=[Related(prev.name.span, "first here")]))
+            return
+        self.scope.objects[_key(o.name.text)] = ObjectInfo(o.name, self._shared(type_keys(o.type)),
+                                                           constant)
+
+    def _shared(self, types: tuple[str, ...]) -> tuple[str, ...]:
+        """One tuple per distinct type set (a large problem's objects share a few)."""
+        return self._type_sets.setdefault(types, types)
+
+    def _declare_packed_objects(self, items: TypedNames, constant: bool) -> None:
+        """:meth:`declare_objects` of names kept as columns: each name's info refers to its
+        entry (the Name is built only for a diagnostic or a language-server request)."""
+        objects = self.scope.objects
+        group_types: dict[int, tuple[str, ...]] = {}
+        ref, grp = items.ref, items.grp
+        for j in range(len(ref)):
+            if ref[j] < 0:
+                self._declare_object(items.others[j], constant)
                 continue
-            self.scope.objects[o.name.key] = ObjectInfo(o.name, type_keys(o.type), constant)
+            g = grp[j]
+            types = group_types.get(g)
+            if types is None:
+                tref = items.groups[g][0]
+                for n in (tref.names if tref is not None else ()):
+                    self.require_type(n)
+                types = group_types[g] = self._shared(type_keys(tref))
+            key = _key(items.name_text(j))
+            if key in objects:
+                self._declare_object(items[j], constant)
+                continue
+            objects[key] = ObjectInfo(items, types, constant, j)
 
     # ---- predicates and functions --------------------------------------------------------
     def declare_predicates(self, d: A.Domain) -> None:
@@ -441,6 +477,60 @@ class Checker:
                                 related=[Related(decl.span, "declared geometric here")]))
 
     # ---- problem ---------------------------------------------------------------------------
+    def _check_init_item(self, item: A.InitItem, env: dict) -> None:
+        if isinstance(item, A.Atom) and self.legacy and self._unknown_objects(item):
+            return
+        if isinstance(item, A.Atom):
+            decl = self.check_atom(item, env, set(), "init")
+            if decl is not None and decl.kind is A.Kind.GEOMETRIC:
+                self.sink.add(error("E404", f"geometric predicate `{decl.name.text}` in "
+                                    "`:init`: its value follows from the scene", item.span,
+                                    "remove it; tmpc evaluates it on the initial state"))
+        elif isinstance(item, A.NumericInit):
+            self.check_num(item.target, env, set())
+        elif isinstance(item, A.Equals):
+            self.check_formula(item, env, set(), "init")
+
+    def _check_packed_init(self, init: InitFacts, env: dict) -> None:
+        """:meth:`_check_init_item` of each fact, from the symbol ids of the columns: a fact
+        whose predicate (or function) is known, of the right arity and with known objects of
+        fitting types has nothing to report, and is not built; any other is built and checked
+        as a node (so its diagnostics are the same)."""
+        names = init.src.names
+        scope = self.scope
+        heads: dict[tuple[bool, int], tuple | None] = {}     # (numeric, id) -> (arity, expected)
+        objects: dict[int, tuple[str, ...] | None] = {}
+        fits: dict[tuple, bool] = {}
+        for j, numeric, ids in init.facts():
+            if numeric is None:
+                self._check_init_item(init.others[j], env)
+                continue
+            sig = heads.get((numeric, ids[0]), False)
+            if sig is False:
+                table = scope.functions if numeric else scope.predicates
+                decl = table.get(names[ids[0]].lower())
+                sig = None if decl is None or (not numeric and decl.kind is A.Kind.GEOMETRIC) \
+                    else (len(decl.params), tuple(type_keys(q.type) for q in decl.params))
+                heads[(numeric, ids[0])] = sig
+            ok = sig is not None and sig[0] == len(ids) - 1
+            if ok:
+                for a, expected in zip(ids[1:], sig[1]):
+                    actual = objects.get(a, False)
+                    if actual is False:
+                        info = scope.objects.get(names[a].lower())
+                        actual = objects[a] = info.types if info is not None else None
+                    if actual is None:
+                        ok = False
+                        break
+                    fit = fits.get((actual, expected))
+                    if fit is None:
+                        fit = fits[(actual, expected)] = scope.compatible(actual, expected)
+                    if not fit:
+                        ok = False
+                        break
+            if not ok:
+                self._check_init_item(init[j], env)
+
     def check_problem(self, p: A.Problem) -> None:
         self.check_requirements(p.requirements)
         if p.domain_name is not None and p.domain_name.key != self.domain.name.key:
@@ -449,23 +539,21 @@ class Checker:
                                 f"`{self.domain.name.text}`", p.domain_name.span,
                                 related=[Related(self.domain.name.span, "the domain")]))
         env: dict = {}
-        for item in p.init:
-            if isinstance(item, A.Atom) and self.legacy and self._unknown_objects(item):
-                continue
-            if isinstance(item, A.Atom):
-                decl = self.check_atom(item, env, set(), "init")
-                if decl is not None and decl.kind is A.Kind.GEOMETRIC:
-                    self.sink.add(error("E404", f"geometric predicate `{decl.name.text}` in "
-                                        "`:init`: its value follows from the scene", item.span,
-                                        "remove it; tmpc evaluates it on the initial state"))
-            elif isinstance(item, A.NumericInit):
-                self.check_num(item.target, env, set())
-            elif isinstance(item, A.Equals):
-                self.check_formula(item, env, set(), "init")
+        if isinstance(p.init, InitFacts):
+            self._check_packed_init(p.init, env)
+        else:
+            for item in p.init:
+                self._check_init_item(item, env)
         if p.goal is not None:
             self.check_formula(p.goal, env, set(), "goal")
         if p.metric is not None:
             self.check_num(p.metric.expr, env, set())
+
+
+def _key(text: str) -> str:
+    """A name's key (lower case), the name's own string when it is lower case already."""
+    key = text.lower()
+    return text if key == text else key
 
 
 def _types(keys: tuple[str, ...]) -> str:

@@ -11,7 +11,10 @@ kept where the source had one or more. The property tests check ``parse(fmt(x)) 
 from __future__ import annotations
 
 import bisect
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from itertools import chain
+from typing import Any
 
 from tmpc.lang.reader_common import head, is_keyword, sym
 from tmpc.lang.sexpr import Comment, SAtom, SExpr, SexprDoc, SList
@@ -31,7 +34,7 @@ HEADER = {"define": 1, ":action": 1, ":derived": 1, ":define": 1, "forall": 1, "
 TYPED_SECTIONS = frozenset({":types", ":objects", ":constants"})
 
 
-@dataclass
+@dataclass(slots=True)
 class _Line:
     """One output line: absolute indentation, code, and an optional trailing `;` comment."""
 
@@ -54,31 +57,56 @@ class Formatter:
         self.starts = [c.span.start for c in doc.comments]
 
     # ---- entry ---------------------------------------------------------------------------
+    # Lines are produced lazily, one at a time (generators), and the text in chunks: a large
+    # problem's `:init` is never a list of lines, nor of its facts.
     def format(self) -> str:
+        return "".join(self.chunks())
+
+    def chunks(self, lines_per_chunk: int = 4096) -> Iterator[str]:
+        """The formatted text in pieces of a few thousand lines (blank lines at both ends
+        dropped, a newline at the end)."""
         lines = self.children(self.doc.items, None, 0, len(self.text), 0)
-        out = "\n".join(ln.render() for ln in lines).strip("\n")
-        return out + "\n" if out else ""
+        buf: list[str] = []
+        blanks, started = 0, False
+        for ln in lines:
+            r = ln.render()
+            if not r:
+                blanks += started
+                continue
+            if blanks:
+                buf.append("\n" * blanks)
+                blanks = 0
+            buf.append(r)
+            buf.append("\n")
+            started = True
+            if len(buf) >= 2 * lines_per_chunk:
+                yield "".join(buf)
+                buf = []
+        if buf:
+            yield "".join(buf)
 
     def children(self, groups, first_line_end, start: int, end: int, indent: int,
-                 trail: int = 0) -> list[_Line]:
+                 trail: int = 0) -> Iterator[_Line]:
         """Lines of ``groups`` (one per line at ``indent``) with their comments and blank lines.
 
         ``trail``: closing brackets the parent appends to the last line (counted in the width).
         """
-        lines: list[_Line] = []
-        entries = self._entries(groups, first_line_end, start, end)
-        for k, (kind, payload, blank) in enumerate(entries):
-            if blank and lines:
-                lines.append(_Line(0, ""))
+        emitted = False
+        for (kind, payload, blank), last in _with_last(self._entries(groups, first_line_end,
+                                                                     start, end)):
+            if blank and emitted:
+                yield _Line(0, "")
             if kind == "comment":
-                lines.append(_Line(indent, "", payload.text.rstrip()))
+                emitted = True
+                yield _Line(indent, "", payload.text.rstrip())
                 continue
             group, trailing = payload
-            sub = self.node_group(group, indent, trail if k == len(entries) - 1 else 0)
+            sub = self.node_group(group, indent, trail if last else 0)
             if trailing is not None:
-                sub[-1].comment = trailing.text.rstrip()
-            lines += sub
-        return lines
+                sub = _on_last(sub, lambda ln, c=trailing.text.rstrip(): setattr(ln, "comment", c))
+            for ln in sub:
+                emitted = True
+                yield ln
 
     # ---- comments and blank lines between items ------------------------------------------
     def _comments_between(self, start: int, end: int) -> list[Comment]:
@@ -89,13 +117,16 @@ class Formatter:
     def _line(self, pos: int) -> int:
         return self.doc.source.line_col(pos)[0]
 
-    def _entries(self, groups, first_line_end: int | None, start: int, end: int) -> list:
+    def _entries(self, groups, first_line_end: int | None, start: int, end: int) -> Iterator:
         """Interleave groups with the comments between them.
 
-        Returns (``"comment"``, Comment, blank_before) and (``"node"``, (group, trailing), blank)
-        items; a comment on the line where the previous group ends trails that group.
+        Yields (``"comment"``, Comment, blank_before) and (``"node"``, (group, trailing), blank)
+        items; a comment on the line where the previous group ends trails that group. Only the
+        last entry can still change (a trailing comment), so the others are yielded as soon as
+        the next one is known.
         """
         out: list = []
+        shown = False                   # entries before ``out`` were yielded already
         prev_end = start
         prev_line = self._line(first_line_end) if first_line_end is not None else None
 
@@ -107,84 +138,112 @@ class Formatter:
                         last is not None and last[0] == "node" and last[1][1] is None:
                     out[-1] = ("node", (last[1][0], c), last[2])
                 else:
-                    out.append(("comment", c, self._blank(prev_end, c.span.start, out)))
+                    out.append(("comment", c, self._blank(prev_end, c.span.start,
+                                                          shown or bool(out))))
                 prev_end = c.span.end
 
         for group in groups:
             g_start, g_end = _first(group).span.start, _last(group).span.end
             take_comments(g_start)
-            out.append(("node", (group, None), self._blank(prev_end, g_start, out)))
+            out.append(("node", (group, None), self._blank(prev_end, g_start, shown or bool(out))))
             prev_end, prev_line = g_end, self._line(max(g_start, g_end - 1))
+            if len(out) > 1:
+                yield from out[:-1]
+                del out[:-1]
+                shown = True
         take_comments(end)
-        return out
+        yield from out
 
-    def _blank(self, a: int, b: int, out: list) -> bool:
-        return bool(out) and self.text.count("\n", a, b) >= 2
+    def _blank(self, a: int, b: int, after: bool) -> bool:
+        return after and self.text.count("\n", a, b) >= 2
 
     # ---- nodes -----------------------------------------------------------------------------
-    def node_group(self, group, indent: int, trail: int = 0) -> list[_Line]:
+    def node_group(self, group, indent: int, trail: int = 0) -> Iterator[_Line]:
         """A node, a `:key value` pair or a typed group, starting a line at ``indent``."""
         if not isinstance(group, tuple):
-            return self.node(group, indent, indent, trail)
+            yield from self.node(group, indent, indent, trail)
+            return
         flat = [self.flat(n) for n in group]
         if all(f is not None for f in flat) and \
                 indent + sum(len(f) + 1 for f in flat) - 1 + trail <= WIDTH:
-            return [_Line(indent, " ".join(flat))]
+            yield _Line(indent, " ".join(flat))
+            return
         if any(f is None for f in flat[:-1]):
-            return [ln for i, n in enumerate(group)
-                    for ln in self.node(n, indent, indent, trail if i == len(group) - 1 else 0)]
+            for i, n in enumerate(group):
+                yield from self.node(n, indent, indent, trail if i == len(group) - 1 else 0)
+            return
         lead = " ".join(flat[:-1])
         rest = self.node(group[-1], indent + len(lead) + 1, indent, trail)
-        rest[0] = _Line(indent, lead + " " + rest[0].code, rest[0].comment)
-        return rest
+        first = next(rest)
+        yield _Line(indent, lead + " " + first.code, first.comment)
+        yield from rest
 
-    def node(self, x: SExpr, col: int, indent: int, trail: int = 0) -> list[_Line]:
+    def node(self, x: SExpr, col: int, indent: int, trail: int = 0) -> Iterator[_Line]:
         if isinstance(x, SAtom):
-            return [_Line(indent, self.atom_text(x, head_pos=False))]
-        flat = self.flat(x)
-        if flat is not None and col + len(flat) + trail <= WIDTH and head(x) not in ALWAYS_BREAK:
-            return [_Line(indent, flat)]
+            return iter((_Line(indent, self.atom_text(x, head_pos=False)),))
+        if head(x) not in ALWAYS_BREAK:
+            flat = self.flat(x)
+            if flat is not None and col + len(flat) + trail <= WIDTH:
+                return iter((_Line(indent, flat),))
         return self.broken(x, col, indent, trail)
 
-    def broken(self, x: SList, col: int, indent: int, trail: int = 0) -> list[_Line]:
+    def broken(self, x: SList, col: int, indent: int, trail: int = 0) -> Iterator[_Line]:
         """``x`` over several lines; it starts at column ``col``, its children at indent + 2."""
         h = head(x)
-        items = list(x.items)
+        items = x.items
         n_head = self._header_size(x, h, col)
         header = [self.atom_text(it, head_pos=True) if i == 0 and isinstance(it, SAtom)
                   else self.flat(it) for i, it in enumerate(items[:n_head])]
         first_end = items[n_head - 1].span.end if n_head else x.span.start + 1
         end = x.close.start if x.close else x.span.end
-        groups = self.group(items[n_head:], h)
-        if n_head and len(groups) == 1 and isinstance(groups[0], SList) and (h or "")[:1] == ":" \
-                and h not in ALWAYS_BREAK and not self._comments_between(first_end, end):
+        rest = items[n_head:]
+        if h in TYPED_SECTIONS or (h or "").startswith("?"):
+            rest = list(self.group(rest, h))      # typed groups, computed once
+            h_rest = _GROUPED
+        else:
+            h_rest = h
+        groups = iter(self.group(rest, h_rest))
+        g0, g1 = next(groups, None), next(groups, None)
+        if n_head and g0 is not None and g1 is None and isinstance(g0, SList) and \
+                (h or "")[:1] == ":" and h not in ALWAYS_BREAK and \
+                not self._comments_between(first_end, end):
             # a section's single child hangs on the opening line: `(:goal (and` ... `))`
             lead = "(" + " ".join(header) + " "
-            lines = self.node(groups[0], col + len(lead), indent, trail + 1)
+            lines = self.node(g0, col + len(lead), indent, trail + 1)
+            l0, l1 = next(lines), next(lines, None)
             # multi-line children hang only in sections without a header (`:goal`); a helper's
             # body (`:define (sig) body`) hangs only when it fits on the line.
-            if col + len(lead) + len(lines[0].code) <= WIDTH and \
-                    (len(lines) == 1 or not HEADER.get(h or "", 0)):
-                lines[0] = _Line(indent, lead + lines[0].code, lines[0].comment)
-                lines[-1].code += ")"
-                return lines
-        if groups and all(isinstance(g, SAtom) for g in groups) and \
+            if col + len(lead) + len(l0.code) <= WIDTH and \
+                    (l1 is None or not HEADER.get(h or "", 0)):
+                l0 = _Line(indent, lead + l0.code, l0.comment)
+                more = (l0,) if l1 is None else (l0, l1)
+                yield from _on_last(chain(more, lines), _close)
+                return
+        if g0 is not None and all(isinstance(g, SAtom) for g in self.group(rest, h_rest)) and \
                 not self._comments_between(first_end, end):
-            return self.filled(header, groups, indent, trail)
-        body = self.children(groups, first_end, first_end, end, indent + INDENT, trail + 1)
-        lines = [_Line(indent, "(" + " ".join(header))]
+            yield from self.filled(header, self.group(rest, h_rest), indent, trail)
+            return
+        body = self.children(self.group(rest, h_rest), first_end, first_end, end,
+                             indent + INDENT, trail + 1)
+        opening = _Line(indent, "(" + " ".join(header))
         # a comment on the opening line trails it
-        if body and body[0].code == "" and body[0].comment is not None and \
-                self._line(first_end) == self._comment_line(body[0]):
-            lines[0].comment = body.pop(0).comment
-        lines += body
-        if lines[-1].comment is not None and len(lines) > 1:
+        b0 = next(body, None)
+        if b0 is not None and b0.code == "" and b0.comment is not None and \
+                self._line(first_end) == self._comment_line(b0):
+            opening.comment = b0.comment
+            b0 = next(body, None)
+        last = opening
+        for ln in chain((b0,) if b0 is not None else (), body):
+            yield last
+            last = ln
+        if last.comment is not None and last is not opening:
             # a comment inside the list ends the last line: `)` goes below it, so the comment
             # stays inside the list and a second `fmt` changes nothing
-            lines.append(_Line(indent, ")"))
+            yield last
+            yield _Line(indent, ")")
         else:
-            lines[-1].code += ")"
-        return lines
+            last.code += ")"
+            yield last
 
     def _header_size(self, x: SList, h: str | None, col: int) -> int:
         """Items kept on the opening line: the head and HEADER[h] more, but none after a comment,
@@ -207,20 +266,20 @@ class Formatter:
                 return i
         return min(n, len(items))
 
-    def filled(self, header: list[str], atoms: list[SAtom], indent: int, trail: int):
+    def filled(self, header: list[str], atoms: Iterable[SAtom], indent: int,
+               trail: int) -> Iterator[_Line]:
         """Only atoms after the header: as many per line as fit (`:requirements`, long lists)."""
-        lines = [_Line(indent, "(" + " ".join(header))]
+        yield _Line(indent, "(" + " ".join(header))
         cur = _Line(indent + INDENT, "")
-        for i, a in enumerate(atoms):
+        for a, last in _with_last(atoms):
             word = self.atom_text(a, head_pos=False)
-            extra = trail + 1 if i == len(atoms) - 1 else 0
+            extra = trail + 1 if last else 0
             if cur.code and cur.indent + len(cur.code) + 1 + len(word) + extra > WIDTH:
-                lines.append(cur)
+                yield cur
                 cur = _Line(indent + INDENT, "")
             cur.code = f"{cur.code} {word}" if cur.code else word
-        lines.append(cur)
-        lines[-1].code += ")"
-        return lines
+        cur.code += ")"
+        yield cur
 
     def _comment_line(self, line: _Line) -> int:
         for c in self.comments:
@@ -228,22 +287,27 @@ class Formatter:
                 return self._line(c.span.start)
         return -1
 
-    def group(self, items: list[SExpr], h: str | None) -> list:
-        """Keep `:key value` pairs and typed groups together as tuples."""
+    def group(self, items, h: str | None) -> Iterator:
+        """Keep `:key value` pairs and typed groups together as tuples (lazily: ``items`` may
+        be a large packed list)."""
+        if h is _GROUPED:
+            yield from items
+            return
         if h in TYPED_SECTIONS or (h or "").startswith("?"):
-            return [run for g in _typed_groups(items) for run in self._split_at_comments(g)]
-        out: list = []
-        i = 0
-        while i < len(items):
-            it = items[i]
-            if is_keyword(it) and i + 1 < len(items) and not is_keyword(items[i + 1]) and \
-                    not self._comments_between(it.span.end, items[i + 1].span.start):
-                out.append((it, items[i + 1]))
-                i += 2
+            for g in _typed_groups(items):
+                yield from self._split_at_comments(g)
+            return
+        it = iter(items)
+        x = next(it, None)
+        while x is not None:
+            y = next(it, None)
+            if y is not None and is_keyword(x) and not is_keyword(y) and \
+                    not self._comments_between(x.span.end, y.span.start):
+                yield (x, y)
+                x = next(it, None)
                 continue
-            out.append(it)
-            i += 1
-        return out
+            yield x
+            x = y
 
     def _split_at_comments(self, group) -> list:
         """A group with comments between its items becomes runs, so no comment is lost."""
@@ -287,7 +351,36 @@ class Formatter:
         return x.text
 
 
-def _typed_groups(items: list[SExpr]) -> list:
+def _with_last(items: Iterable) -> Iterator[tuple]:
+    """``(item, is_last)`` for each item."""
+    it = iter(items)
+    prev = next(it, _NONE)
+    if prev is _NONE:
+        return
+    for x in it:
+        yield prev, False
+        prev = x
+    yield prev, True
+
+
+_NONE = object()
+#: :meth:`Formatter.group` of items that are groups already
+_GROUPED: Any = object()
+
+
+def _on_last(lines: Iterable[_Line], change) -> Iterator[_Line]:
+    """``lines`` with ``change`` applied to the last one."""
+    for ln, last in _with_last(lines):
+        if last:
+            change(ln)
+        yield ln
+
+
+def _close(ln: _Line) -> None:
+    ln.code += ")"
+
+
+def _typed_groups(items) -> list:
     out, cur = [], []
     i = 0
     while i < len(items):

@@ -14,9 +14,19 @@ from dataclasses import dataclass, field
 from tmpc.lang import ast as A
 from tmpc.lang import symbols as K
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, Related, warning
-from tmpc.lang.reader_common import describe, head, is_keyword, is_sym, suggest, sym
+from tmpc.lang.columns import InitFacts
+from tmpc.lang.reader_common import (
+    describe,
+    head,
+    is_keyword,
+    is_sym,
+    packed_facts,
+    plain_init_pred,
+    suggest,
+    sym,
+)
 from tmpc.lang.reader_formulas import FormulaReader
-from tmpc.lang.sexpr import SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
+from tmpc.lang.sexpr import Packed, SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile, Span
 
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
@@ -441,6 +451,8 @@ class Reader(FormulaReader):
     def problem(self, name: A.Name, x: SList) -> A.Problem:
         allowed = ("", ":domain", ":requirements", ":objects", ":init", ":goal", ":metric")
         dom, reqs, objs, init, goal, metric = None, [], [], [], None, None
+        objs_parts: list = []
+        init_parts: list = []
         for kw, sec in self._sections(x, allowed, DOMAIN_ONLY, "problem"):
             body = sec.items[1:]
             if kw == ":domain":
@@ -451,9 +463,10 @@ class Reader(FormulaReader):
             elif kw == ":requirements":
                 reqs += self.requirements(body)
             elif kw == ":objects":
-                objs += self.typed_list(body, False, "`:objects`")
+                objs_parts.append(self.typed_list(body, False, "`:objects`"))
             elif kw == ":init":
-                init += [i for i in (self.init_item(b) for b in body) if i]
+                init_parts.append(self.init_facts(body) if isinstance(body, Packed) else
+                                  tuple(i for i in (self.init_item(b) for b in body) if i))
             elif kw == ":goal":
                 if len(body) != 1:
                     self.err("E111", "`:goal` takes one formula (wrap several in `(and ...)`)",
@@ -462,8 +475,16 @@ class Reader(FormulaReader):
                     goal = self.formula(body[0])
             elif kw == ":metric":
                 metric = self.metric(sec)
-        return A.Problem(name, dom, tuple(reqs), tuple(objs), tuple(init), goal, metric,
-                         span=x.span)
+        # one section (the usual case) stays as the reader made it, maybe as columns
+        objs = objs_parts[0] if len(objs_parts) == 1 else tuple(o for p in objs_parts for o in p)
+        init = init_parts[0] if len(init_parts) == 1 else tuple(i for p in init_parts for i in p)
+        return A.Problem(name, dom, tuple(reqs), objs, init, goal, metric, span=x.span)
+
+    def init_facts(self, body: Packed) -> InitFacts:
+        """`:init` of a large problem: each fact `(p a b)` or `(= (f a b) 3)` of plain names
+        stays an index into the s-expression columns (:mod:`tmpc.lang.columns`); anything else
+        is read by :meth:`init_item`."""
+        return packed_facts(body, plain_init_pred, True, self.init_item)
 
     def init_item(self, x: SExpr) -> A.InitItem | None:
         if not isinstance(x, SList) or not x.items:

@@ -6,9 +6,13 @@ import difflib
 import re
 from typing import Iterable, Sequence
 
+from array import array
+
 from tmpc.lang import ast as A
+from tmpc.lang.columns import InitFacts, TypedNames
 from tmpc.lang.diagnostics import Diagnostic, DiagnosticSink, error, warning
-from tmpc.lang.sexpr import SAtom, SExpr, SList
+from tmpc.lang.sexpr import CLOSE, OPEN, Packed, SAtom, SExpr, SList
+from tmpc.lang.symbols import NUMERIC_COMPARISONS
 from tmpc.lang.source import Span
 
 NUMBER_RE = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?\Z")
@@ -105,6 +109,8 @@ class ReaderBase:
 
         ``variables`` selects ``?x`` entries (parameters) or names (objects, types).
         """
+        if not variables and isinstance(items, Packed):
+            return self._packed_typed_list(items, what)
         out: list[A.Typed] = []
         pending: list[A.Name] = []
         i, n = 0, len(items)
@@ -147,6 +153,73 @@ class ReaderBase:
         out.extend(A.Typed(nm, None, span=nm.span) for nm in pending)
         return tuple(out)
 
+    def _packed_typed_list(self, items: Packed, what: str) -> TypedNames:
+        """:meth:`typed_list` of names kept as columns (a large problem's `:objects`): a plain
+        name stays the index of its symbol; the rest is read as :meth:`typed_list` reads it."""
+        out = TypedNames(items)
+        first, sym, names = items.first, items.sym, items.names
+        pending = array("q")        # a packed name's index, or -1: the Name in ``named``
+        named: dict[int, A.Name] = {}
+        plain: dict[int, bool] = {}
+        i, n = 0, len(items)
+        while i < n:
+            k = items.lo + i
+            t = first[k]
+            if first[k + 1] - t == 1:
+                s = sym[t]
+                ok = plain.get(s)
+                if ok is None:
+                    ok = plain[s] = s >= 0 and _plain_name(names[s])
+                if ok:
+                    pending.append(k)
+                    i += 1
+                    continue
+            x = items[i]
+            if is_sym(x) and x.text.startswith("-") and not is_number(x):
+                glued = x.text[1:]
+                if glued:
+                    tref = A.TypeRef((A.Name(glued, span=Span(x.span.path, x.span.start + 1,
+                                                              x.span.end)),), span=x.span)
+                    i += 1
+                elif i + 1 < n and not is_var(items[i + 1]):
+                    tref = self.type_ref(items[i + 1])
+                    i += 2
+                elif i + 1 < n:
+                    self.err("E110", f"`-` in {what} must be followed by a type, found "
+                             f"`{items[i + 1].text}`", x.span.cover(items[i + 1].span),
+                             "write `?x - type`; a ?variable cannot be a type")
+                    i += 1
+                    continue
+                else:
+                    self.err("E110", f"`-` at the end of {what} must be followed by a type",
+                             x.span, "write `?x - type` (or remove the `-`)")
+                    break
+                if not pending:
+                    self.sink.add(warning("W009", f"type `{_type_text(tref)}` in {what} follows "
+                                          "no name", x.span,
+                                          "a type comes after the names it types: `?a ?b - type`"))
+                self._group(out, pending, named, tref, x.span)
+                pending, named = array("q"), {}
+                continue
+            entry = self._typed_entry(x, False, what)
+            if entry is not None:
+                named[len(pending)] = entry
+                pending.append(-1)
+            i += 1
+        self._group(out, pending, named, None, None)
+        return out
+
+    @staticmethod
+    def _group(out: TypedNames, pending, named: dict, tref, dash: Span | None) -> None:
+        g = len(out.groups)
+        out.groups.append((tref, dash))
+        for p, k in enumerate(pending):
+            if k >= 0:
+                out.add(k, g)
+            else:
+                nm = named[p]
+                out.add_other(A.Typed(nm, tref, span=nm.span.cover(dash) if dash else nm.span))
+
     def _typed_entry(self, x: SExpr, variables: bool, what: str) -> A.Name | None:
         if variables:
             if is_var(x):
@@ -178,7 +251,75 @@ class ReaderBase:
         return A.TypeRef((nm,) if nm else (), span=x.span)
 
 
+def _plain_name(text: str) -> bool:
+    """A symbol :meth:`ReaderBase.typed_list` reads as a name (not a string, a ``- type``, a
+    ?variable or a :keyword)."""
+    if text[0] in '"?:':
+        return False
+    return not text.startswith("-") or NUMBER_RE.match(text) is not None
+
+
 def _type_text(t: A.TypeRef) -> str:
     if len(t.names) == 1:
         return t.names[0].text
     return "(either " + " ".join(n.text for n in t.names) + ")"
+
+
+def packed_facts(body: Packed, plain_head, numeric: bool, read) -> InitFacts:
+    """The facts of ``body`` (a large `:init`, or a large goal's `and`): a list of plain names
+    whose head ``plain_head`` accepts (``numeric``: or `(= (f a b) NUMBER)`) stays an index into
+    the columns; any other child is read by ``read`` (kept unless None)."""
+    out = InitFacts(body)
+    first, sym, names = body.first, body.sym, body.names
+    preds: dict[int, bool] = {}
+    args: dict[int, bool] = {}
+    for k in range(body.lo, body.hi):
+        t, end = first[k], first[k + 1]
+        plain = end - t >= 3 and sym[t] == OPEN
+        if plain and sym[t + 2] == OPEN:
+            # `(= (f a b) 3)`: its function as a fact's predicate, then a number
+            plain = numeric and end - t >= 7 and sym[t + 1] >= 0 and names[sym[t + 1]] == "=" \
+                and sym[end - 3] == CLOSE and sym[end - 2] >= 0 \
+                and NUMBER_RE.match(names[sym[end - 2]]) is not None
+            t, end = t + 2, end - 2
+        if plain:
+            s = sym[t + 1]
+            ok = preds.get(s)
+            if ok is None:
+                ok = preds[s] = s >= 0 and plain_head(names[s])
+            plain = ok
+            for i in range(t + 2, end - 1):
+                if not plain:
+                    break
+                s = sym[i]
+                ok = args.get(s)
+                if ok is None:
+                    ok = args[s] = s >= 0 and _plain_arg(names[s])
+                plain = ok
+        if plain:
+            out.ref.append(k)
+        else:
+            item = read(body.at(k))
+            if item is not None:
+                out.add_other(item)
+    return out
+
+
+def plain_init_pred(text: str) -> bool:
+    """A fact's head that :meth:`Reader.init_item` reads as a predicate name of an atom."""
+    return text[0] not in '"?' and text.lower() not in ("=", "not") and \
+        NUMBER_RE.match(text) is None
+
+
+def plain_goal_pred(text: str) -> bool:
+    """An atom's head :meth:`FormulaReader.formula` reads as a predicate name."""
+    return text[0] not in '"?:' and text.lower() not in GOAL_HEADS and \
+        NUMBER_RE.match(text) is None
+
+
+GOAL_HEADS = frozenset({"and", "or", "not", "imply", "exists", "forall", *NUMERIC_COMPARISONS})
+
+
+def _plain_arg(text: str) -> bool:
+    """An argument :meth:`Reader.term` reads as a constant."""
+    return text[0] not in '"?:'

@@ -13,10 +13,12 @@ from tmpc.lang.reader_common import (
     is_number,
     is_sym,
     is_var,
+    packed_facts,
+    plain_goal_pred,
     suggest,
     sym,
 )
-from tmpc.lang.sexpr import SAtom, SExpr, SList, depth_error, parse_sexpr
+from tmpc.lang.sexpr import Packed, SAtom, SExpr, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile
 
 
@@ -36,6 +38,9 @@ class FormulaReader(ReaderBase):
                      x.items[0].span)
             return None
         args = x.items[1:]
+        if h == "and" and isinstance(args, Packed):
+            # a large goal: its atoms stay in the columns, as a large `:init`'s facts do
+            return A.And(packed_facts(args, plain_goal_pred, False, self.formula), span=x.span)
         if h in ("and", "or"):
             parts = tuple(p for p in (self.formula(a) for a in args) if p is not None)
             return (A.And if h == "and" else A.Or)(parts, span=x.span)

@@ -74,11 +74,32 @@ def type_keys(t: A.TypeRef | None) -> tuple[str, ...]:
     return tuple(n.key for n in t.names)
 
 
-@dataclass(frozen=True)
 class ObjectInfo:
-    name: A.Name
-    types: tuple[str, ...]
-    constant: bool        # declared in the domain's :constants
+    """An object or constant: its name (where it is declared), types and origin.
+
+    A large problem has hundreds of thousands: the types tuple is shared, and the name of a
+    packed ``:objects`` entry is built when asked for (``source`` and ``index``)."""
+
+    __slots__ = ("_name", "_index", "types", "constant")
+
+    def __init__(self, name, types: tuple[str, ...], constant: bool, index: int = -1):
+        self._name, self._index = name, index
+        self.types = types
+        self.constant = constant          # declared in the domain's :constants
+
+    @property
+    def name(self) -> A.Name:
+        return self._name if self._index < 0 else self._name.name(self._index)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, ObjectInfo) and (self.name, self.types, self.constant) == \
+            (other.name, other.types, other.constant)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.types, self.constant))
+
+    def __repr__(self) -> str:
+        return f"ObjectInfo(name={self.name!r}, types={self.types!r}, constant={self.constant})"
 
 
 @dataclass

@@ -15,6 +15,8 @@ as a related location, so a file yields all its errors and a usable partial tree
 from __future__ import annotations
 
 import re
+from array import array
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -55,6 +57,171 @@ class SList:
 
 
 SExpr = SAtom | SList
+
+
+class Packed(Sequence):
+    """The children of a long list (a problem's `:init`, `:objects`, a large goal) as columns
+    of tokens instead of objects: an SAtom with its span costs ~110 bytes and a fact ~500, 15x
+    its text; here a token costs 12. Indexing builds the SAtom/SList on demand, equal to the one
+    a tuple would hold; a slice is a view on the same columns.
+
+    Columns: ``sym``, per token, the id of its text in ``names`` (a string's text keeps its
+    quotes), or :data:`OPEN` / :data:`CLOSE` for a bracket; ``pos``, its start offset; per child
+    ``first``, the index of its first token (one more entry at the end). A child too large to be
+    rebuilt on every access (over :data:`MAX_PACKED_CHILD` tokens, or one that holds a packed
+    list) is kept as an object in ``others`` instead, with no tokens."""
+
+    __slots__ = ("path", "names", "sym", "pos", "first", "others", "lo", "hi")
+
+    def __init__(self, path: str, names: list[str], offsets: str = "q"):
+        """``offsets``: the array type of offsets and token indices (``"I"``, 4 bytes, in a
+        text under 4 G characters)."""
+        self.path, self.names = path, names
+        self.sym, self.pos = array("i"), array(offsets)
+        self.first = array(offsets, [0])
+        self.others: dict[int, SExpr] = {}
+        self.lo, self.hi = 0, 0
+
+    # ---- building (the scanner) ----------------------------------------------------------
+    def add(self, x: SExpr, ids: dict[str, int]) -> None:
+        """Append a child given as an object (its texts get ids from ``ids``)."""
+        mark = len(self.sym)
+        if not self._flatten(x, ids):
+            del self.sym[mark:]
+            del self.pos[mark:]
+            self.others[self.hi] = x
+        self.end_child()
+
+    def _flatten(self, x: SExpr, ids: dict[str, int]) -> bool:
+        if isinstance(x, SAtom):
+            sid = ids.get(x.text)
+            if sid is None:
+                sid = ids[x.text] = len(self.names)
+                self.names.append(x.text)
+            self.sym.append(sid)
+            self.pos.append(x.span.start)
+            return True
+        if type(x.items) is not tuple or not x.closed:
+            return False
+        self.sym.append(OPEN)
+        self.pos.append(x.span.start)
+        for y in x.items:
+            if not self._flatten(y, ids):
+                return False
+        self.sym.append(CLOSE)
+        self.pos.append(x.span.end - 1)
+        return True
+
+    def end_child(self) -> None:
+        """The tokens since the last child make one more child."""
+        k, n = self.hi, len(self.sym)
+        self.first.append(n)
+        self.hi += 1
+        if n - self.first[k] > MAX_PACKED_CHILD:
+            x = self.at(k)
+            del self.sym[self.first[k]:]
+            del self.pos[self.first[k]:]
+            self.first[k + 1] = self.first[k]
+            self.others[k] = x
+
+    # ---- reading -------------------------------------------------------------------------
+    def __len__(self) -> int:
+        return self.hi - self.lo
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            lo, hi, step = i.indices(self.hi - self.lo)
+            if step != 1:
+                return tuple(self[k] for k in range(lo, hi, step))
+            view = object.__new__(Packed)
+            for k in Packed.__slots__:
+                setattr(view, k, getattr(self, k))
+            view.lo, view.hi = self.lo + lo, self.lo + max(lo, hi)
+            return view
+        n = self.hi - self.lo
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(i)
+        return self.at(self.lo + i)
+
+    def __iter__(self):
+        at = self.at
+        for k in range(self.lo, self.hi):
+            yield at(k)
+
+    def at(self, k: int) -> SExpr:
+        """The child at absolute index ``k`` (the columns' index, not the view's)."""
+        t, end = self.first[k], self.first[k + 1]
+        if t == end:
+            return self.others[k]
+        sym, pos, names, path = self.sym, self.pos, self.names, self.path
+        if end - t == 1:
+            return self.atom(t)
+        inner = sym[t + 1:end - 1]
+        if not inner or min(inner) >= 0:                  # a list of atoms (a fact)
+            return SList(tuple([SAtom(names[s], "string" if names[s][0] == '"' else "symbol",
+                                      Span(path, p, p + len(names[s])))
+                                for s, p in zip(inner, pos[t + 1:end - 1])]),
+                         Span(path, pos[t], pos[end - 1] + 1), True)
+        stack: list[list] = []
+        opens: list[int] = []
+        for i in range(t, end):
+            s = sym[i]
+            if s == OPEN:
+                stack.append([])
+                opens.append(pos[i])
+            elif s == CLOSE:
+                x = SList(tuple(stack.pop()), Span(path, opens.pop(), pos[i] + 1), True)
+                if not stack:
+                    return x
+                stack[-1].append(x)
+            else:
+                text, start = names[s], pos[i]
+                stack[-1].append(SAtom(text, "string" if text[0] == '"' else "symbol",
+                                       Span(path, start, start + len(text))))
+        raise AssertionError("unbalanced packed child")
+
+    def atom(self, t: int) -> SAtom:
+        text, start = self.names[self.sym[t]], self.pos[t]
+        return SAtom(text, "string" if text[0] == '"' else "symbol",
+                     Span(self.path, start, start + len(text)))
+
+    def start(self, k: int) -> int:
+        """The start offset of child ``k`` (absolute index)."""
+        t = self.first[k]
+        return self.pos[t] if t < self.first[k + 1] else self.others[k].span.start
+
+    def end(self, k: int) -> int:
+        """The end offset of child ``k`` (absolute index)."""
+        t = self.first[k + 1] - 1
+        if t < self.first[k]:
+            return self.others[k].span.end
+        s = self.sym[t]
+        return self.pos[t] + (1 if s == CLOSE else len(self.names[s]))
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Sequence) or isinstance(other, str):
+            return NotImplemented
+        return len(self) == len(other) and all(a == b for a, b in zip(self, other))
+
+    def __ne__(self, other) -> bool:
+        eq = self.__eq__(other)
+        return eq if eq is NotImplemented else not eq
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return f"Packed({len(self)} items)"
+
+
+#: token ids of the brackets in :attr:`Packed.sym`
+OPEN, CLOSE = -1, -2
+#: a packed child over this many tokens is kept as an object (an action of a large domain)
+MAX_PACKED_CHILD = 256
+#: a list packs its children once it has this many (short lists stay tuples)
+PACK_AT = 16
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,35 +378,76 @@ def _scan(source: SourceFile) -> SexprDoc | None:
     every edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
     Its result equals :func:`parse_sexpr_lark`'s (tested on the corpus and by hypothesis)."""
     text, path = source.text, source.path
-    stack: list[list] = [[]]
-    opens: list[int] = []
+    stack: list = [[]]          # the children of each open list: a list, or a Packed
+    opens: list[int] = []       # where each list of ``stack`` opens
     comments, bad = [], []
-    # one string per distinct symbol: a large problem names the same objects and predicates
-    # hundreds of thousands of times (a 5 MB :init, 250k facts: ~35 MB less)
-    symbols: dict[str, str] = {}
+    # one string per distinct symbol (a large problem names the same objects and predicates
+    # hundreds of thousands of times), and its id in the columns of packed lists
+    names: list[str] = []
+    ids: dict[str, int] = {}
+    offsets = "I" if len(text) < 2 ** 32 else "q"
+    # inside a packed list: its columns, and the depth inside its current child
+    packed: Packed | None = None
+    depth = 0
     for m in _TOKEN.finditer(text):
         group = m.lastindex
         if group == 1:
             continue
         start, end = m.span()
-        if group == 3:
-            stack.append([])
-            opens.append(start)
+        if group == 7 or group == 5:
+            word = m.group()
+            sid = ids.get(word)
+            if sid is None:
+                sid = ids[word] = len(names)
+                names.append(word)
+            if packed is not None:
+                packed.sym.append(sid)
+                packed.pos.append(start)
+                if not depth:
+                    packed.end_child()
+                continue
+            x = SAtom(names[sid], "symbol" if group == 7 else "string", Span(path, start, end))
+        elif group == 3:
+            if packed is not None:
+                packed.sym.append(OPEN)
+                packed.pos.append(start)
+                depth += 1
+            else:
+                stack.append([])
+                opens.append(start)
+            continue
         elif group == 4:
+            if depth:
+                packed.sym.append(CLOSE)
+                packed.pos.append(start)
+                depth -= 1
+                if not depth:
+                    packed.end_child()
+                continue
             if not opens:
                 return None
             items = stack.pop()
-            stack[-1].append(SList(tuple(items), Span(path, opens.pop(), end), True))
-        elif group == 7:
-            word = m.group()
-            stack[-1].append(SAtom(symbols.setdefault(word, word), "symbol",
-                                   Span(path, start, end)))
+            packed = None
+            x = SList(tuple(items) if type(items) is list else items,
+                      Span(path, opens.pop(), end), True)
         elif group == 2:
             comments.append(Comment(m.group(), Span(path, start, end)))
-        elif group == 5:
-            stack[-1].append(SAtom(m.group(), "string", Span(path, start, end)))
+            continue
         else:
             bad.append(_unterminated(Span(path, start, end)))
+            continue
+        top = stack[-1]
+        if type(top) is list:
+            top.append(x)
+            # sections and deeper (`:init`, `:objects`, a goal's `and`), not the top level nor
+            # a `define`'s children (a large domain's actions are read whole anyway)
+            if len(top) >= PACK_AT and len(stack) > 2:
+                packed = Packed(path, names, offsets)
+                for y in top:
+                    packed.add(y, ids)
+                stack[-1] = packed
+        else:
+            top.add(x, ids)
     if opens:
         return None
     return SexprDoc(source, stack[0], comments, bad)

@@ -10,6 +10,7 @@ User-facing text uses 1-based lines and columns (``PATH:LINE:COL``); the languag
 from __future__ import annotations
 
 import bisect
+from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,10 +34,11 @@ class SourceFile:
 
     path: str
     text: str
-    _line_starts: list[int] = field(default_factory=list, repr=False)
+    #: offsets where lines start, as machine integers (a list of ints costs 36 bytes a line)
+    _line_starts: array = field(default_factory=lambda: array("q"), repr=False)
 
     def __post_init__(self) -> None:
-        starts = [0]
+        starts = array("I" if len(self.text) < 2 ** 32 else "q", [0])
         find = self.text.find
         i = find("\n")
         while i != -1:

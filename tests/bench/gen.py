@@ -45,3 +45,59 @@ def big_problem(n_facts: int = 1000) -> str:
         lines.append(f"    (at{k % 60} robot{1 + k % 2} room{k % 40})")
     lines += ["  )", "  (:goal (and (at0 robot1 room39) (has1 robot2 box3))))"]
     return "\n".join(lines) + "\n"
+
+
+def logistics_domain() -> str:
+    """A small typed domain for :func:`large_problem` (unary to ternary predicates, a function)."""
+    return """(define (domain big-logistics)
+  (:requirements :strips :typing :numeric-fluents)
+  (:types place - object city location - place truck package - object)
+  (:predicates
+    (in-city ?l - location ?c - city)
+    (at ?p - package ?l - location)
+    (truck-at ?t - truck ?l - location)
+    (road ?a ?b - location)
+    (delivered ?p - package)
+    (route ?t - truck ?a ?b - location))
+  (:functions (weight ?p - package))
+  (:action drive
+    :parameters (?t - truck ?a ?b - location)
+    :precondition (and (truck-at ?t ?a) (road ?a ?b) (route ?t ?a ?b))
+    :effect (and (truck-at ?t ?b) (not (truck-at ?t ?a))))
+  (:action deliver
+    :parameters (?t - truck ?p - package ?l - location)
+    :precondition (and (truck-at ?t ?l) (at ?p ?l))
+    :effect (and (delivered ?p) (not (at ?p ?l)))))
+"""
+
+
+def large_problem(target_bytes: int) -> str:
+    """A problem for :func:`logistics_domain` of about ``target_bytes`` characters: objects in
+    typed groups (a tenth of the text) and `:init` facts of arity 1-3 with some numeric ones and
+    a comment now and then, laid out as `tmpc fmt` would not (so `fmt` has work to do).
+    Deterministic; the shape of a generated large real problem."""
+    n = max(10, target_bytes // 118)       # ~118 characters of text per package
+    cities, locs, trucks = max(2, n // 100), max(4, n // 4), max(2, n // 20)
+    out = ["; generated large problem (tests/bench/gen.py)", "(define (problem big-1)",
+           "  (:domain big-logistics)", "  (:objects"]
+    for name, count, typ in (("city", cities, "city"), ("loc", locs, "location"),
+                             ("truck", trucks, "truck"), ("pkg", n, "package")):
+        words = [f"{name}{i}" for i in range(count)]
+        for k in range(0, count, 12):
+            out.append("    " + " ".join(words[k:k + 12]) + (f" - {typ}" if k + 12 >= count
+                                                             else ""))
+    out += ["  )", "  (:init"]
+    for i in range(locs):
+        out.append(f"    (in-city loc{i} city{i % cities})")
+        out.append(f"    (road loc{i} loc{(i * 7 + 1) % locs})")
+    for i in range(trucks):
+        out.append(f"    (truck-at truck{i} loc{(i * 13) % locs})")
+    for i in range(n):
+        if i % 1000 == 0:
+            out.append(f"    ; packages from {i}")
+        out.append(f"    (at pkg{i} loc{(i * 31) % locs})  (= (weight pkg{i}) {i % 97})")
+        out.append(f"    (route truck{i % trucks} loc{i % locs} loc{(i * 7 + 1) % locs})")
+        if i % 3 == 0:
+            out.append(f"    (delivered pkg{i})")
+    out += ["  )", "  (:goal (and (delivered pkg0) (at pkg1 loc0))))"]
+    return "\n".join(out) + "\n"
