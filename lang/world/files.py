@@ -9,9 +9,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from tmpc.lang.diagnostics import SceneError
+from tmpc.lang.diagnostics import SceneError, error
 from tmpc.lang.source import Span
 from tmpc.lang.world.reader import LoadReport, Reader, SceneOptions, Stop, join_hints, read_source
+from tmpc.lang.world.robot import find_file as find_urdf_file
 from tmpc.lang.world.robot import resolve_uri
 from tmpc.lang.world.xmldoc import parse_xml
 
@@ -52,6 +53,8 @@ class UrdfNames:
     joints: frozenset[str]
     #: joints a planner can move: revolute, continuous or prismatic, and not mimics
     movable: frozenset[str] = frozenset()
+    #: (link, mesh filename, start and end offsets of the `<mesh>` tag) of each collision mesh
+    collision_meshes: tuple[tuple[str, str, int, int], ...] = ()
 
 
 _URDF_CACHE: dict[tuple[str, int, int], UrdfNames] = {}
@@ -73,8 +76,12 @@ def urdf_names(path: Path, report: LoadReport | None = None) -> UrdfNames:
     movable = frozenset(j.attrib["name"] for j in joint_nodes
                         if j.attrib.get("type") in ("revolute", "continuous", "prismatic")
                         and j.child("mimic") is None)
+    meshes = tuple((lk.attrib["name"], m.attrib["filename"], m.start, m.tag_end)
+                   for lk in root.children if lk.tag == "link" and "name" in lk.attrib
+                   for col in lk.all("collision") for geo in col.all("geometry")
+                   for m in geo.all("mesh") if "filename" in m.attrib)
     names = UrdfNames(root.attrib.get("name", "robot"), links,
-                      frozenset(j.attrib["name"] for j in joint_nodes), movable)
+                      frozenset(j.attrib["name"] for j in joint_nodes), movable, meshes)
     if len(_URDF_CACHE) > 32:
         _URDF_CACHE.clear()
     _URDF_CACHE[key] = names
@@ -129,6 +136,33 @@ def resolve_mesh(r: Reader, opts: SceneOptions, raw: str, span: Span | None, whe
     r.warn("W501", span, f"{where}: mesh file \"{raw}\" not found; kept as {guess}",
            join_hints(looked, _MESH_WHERE))
     return guess
+
+
+def robot_mesh_problems(urdf: Path, report: LoadReport) -> list:
+    """What loading the robot for collision checking would refuse, found without loading it:
+    E562 for each link collision mesh that is not found where a run looks (the URDF's
+    directory, ``package://`` roots, ``TMPC_MESH_PATH``), E565 for one that cannot be loaded
+    (:func:`mesh_defect`). Each at its `<mesh>` tag in the URDF."""
+    out, source = [], None
+    for link, uri, start, end in urdf_names(urdf, report).collision_meshes:
+        found = find_urdf_file(uri, urdf.parent)
+        defect = None if found is None else mesh_defect(found)
+        if found is not None and defect is None:
+            continue
+        if source is None:
+            source = read_source(urdf, "URDF")
+            report.files[source.path] = source
+        span = Span(source.path, start, end)
+        if found is None:
+            looked = ", ".join(str(c) for c in resolve_uri(uri, urdf.parent)[:6])
+            out.append(error("E562", f"{urdf}: mesh `{uri}` of link `{link}` not found", span,
+                             f"looked in: {looked}; set TMPC_MESH_PATH to directories that "
+                             "hold the meshes"))
+        else:
+            out.append(error("E565", f"{urdf}: collision mesh `{uri}` of link `{link}` "
+                             f"({found}) cannot be loaded ({defect})", span,
+                             "use an STL, OBJ or PLY file with triangles"))
+    return out
 
 
 #: how to make a missing mesh found (the hint of E514 and W501)

@@ -27,6 +27,7 @@ from tmpc.lang.source import SourceFile, Span
 # docs/world.md
 from tmpc.lang.world.files import UrdfNames as UrdfNames
 from tmpc.lang.world.files import find_file as find_file
+from tmpc.lang.world.files import robot_mesh_problems
 from tmpc.lang.world.files import search_dirs as search_dirs
 from tmpc.lang.world.files import tried_text as tried_text
 from tmpc.lang.world.files import urdf_names as urdf_names
@@ -127,11 +128,18 @@ def load_scene(path: str | Path, fmt: str | None = None, mesh_dir: str | Path | 
     report.files[source.path] = source
     if fmt is None:
         fmt, parsed = detect_scene_format(source, report)
-        return _within_reach(SCENE_LOADERS[fmt](source, opts, report, parsed), report)
-    if fmt not in SCENE_LOADERS:
+        scene = SCENE_LOADERS[fmt](source, opts, report, parsed)
+    elif fmt not in SCENE_LOADERS:
         raise SceneError(error("E503", f"unknown scene format \"{fmt}\"", None, join_hints(
             did_you_mean(fmt, SCENE_LOADERS), "the formats are " + ", ".join(SCENE_LOADERS))))
-    return _within_reach(SCENE_LOADERS[fmt](source, opts, report), report)
+    else:
+        scene = SCENE_LOADERS[fmt](source, opts, report)
+    if check_meshes and scene.robot is not None:
+        # the robot's link meshes too: a run loads every one for collision checking (E562)
+        problems = robot_mesh_problems(Path(scene.robot.urdf), report)
+        if problems:
+            raise SceneError(problems, report.files)
+    return _within_reach(scene, report)
 
 
 #: metres from the origin beyond which a position is a typo, not a scene (E520)

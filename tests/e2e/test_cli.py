@@ -280,6 +280,38 @@ def test_check_fails_on_a_mesh_a_run_cannot_load(tmp_path):
     assert run("check", str(EXAMPLES / "planet-sort" / "sort.toml")).returncode == 0
 
 
+def test_check_fails_on_a_robot_mesh_a_run_cannot_load(tmp_path):
+    """The robot's link meshes too: a run loads every one for collision checking and stops at
+    a missing one (E562), so `check` reports each missing (E562) or unloadable (E565) link
+    mesh at its `<mesh>` tag in the URDF (L 4)."""
+    from tmpc.lang.world.robot import find_file
+    ex = tmp_path / "ps"
+    shutil.copytree(EXAMPLES / "planet-sort", ex)
+    urdf = find_file("package://example-robot-data/robots/panda_description/urdf/panda.urdf",
+                     ex)
+    text = urdf.read_text()
+    text = text.replace("package://example-robot-data/robots/panda_description/meshes/"
+                        "collision/link3.stl", "meshes/gone.stl")
+    text = text.replace("package://example-robot-data/robots/panda_description/meshes/"
+                        "collision/link5.stl", "meshes/empty.stl")
+    (ex / "panda.urdf").write_text(text)
+    (ex / "meshes" / "empty.stl").write_text("")
+    scene = ex / "scene.xml"
+    scene.write_text(scene.read_text().replace(
+        "package://example-robot-data/robots/panda_description/urdf/panda.urdf", "panda.urdf"))
+    line = next(i for i, ln in enumerate(text.splitlines(), 1) if "meshes/gone.stl" in ln)
+    r = run("check", str(ex / "sort.toml"))
+    assert r.returncode == 1, r.stderr
+    assert f"panda.urdf:{line}:" in r.stderr and "error[E562]" in r.stderr, r.stderr
+    assert "`meshes/gone.stl` of link `panda_link3` not found" in r.stderr
+    assert "TMPC_MESH_PATH" in r.stderr
+    assert "error[E565]" in r.stderr and "link `panda_link5`" in r.stderr and "empty" in r.stderr
+    (ex / "meshes" / "gone.stl").write_bytes((ex / "meshes" / "empty.stl").read_bytes())
+    (ex / "meshes" / "empty.stl").unlink()
+    r = run("check", str(ex / "sort.toml"))
+    assert r.returncode == 1 and "error[E562]" in r.stderr and "panda_link5" in r.stderr
+
+
 def test_the_clutter_generator_writes_a_run_manifest(tmp_path):
     """`generate.py N` writes the manifest too, so `tmpc run` works on what it writes."""
     gen = subprocess.run([sys.executable, str(EXAMPLES / "clutter" / "generate.py"), "3", "--red",
