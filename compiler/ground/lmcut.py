@@ -65,6 +65,7 @@ class RelaxedTask:
             for e in eff:
                 self.eff_of[e].append(o)
         self.n_pre = [len(p) for p in self.pre]
+        self.integral = all(type(c) is int for c in self.cost)
 
     def _prune(self) -> None:
         """Keep the operators that add a fact the goal needs (backward from ``goal`` through
@@ -152,7 +153,8 @@ class LMCut:
             low = s & -s
             init.append(low.bit_length() - 1)
             s ^= low
-        _explore(init, h, cost, supp, scost, sup, t.n_pre[:], pre_of, eff)
+        (_explore_buckets if t.integral else _explore)(init, h, cost, supp, scost, sup,
+                                                       t.n_pre[:], pre_of, eff)
         if h[goal] == INF:
             return INF, True
         while h[goal] != 0:
@@ -167,6 +169,33 @@ class LMCut:
                 landmarks.append((m, frozenset(cut)))
             _decrease(cut, h, cost, supp, scost, sup, pre, pre_of, eff)
         return total, True
+
+
+def _explore_buckets(init, h, cost, supp, scost, sup, unsat, pre_of, eff) -> None:
+    """:func:`_explore` for integer costs: Dijkstra with one bucket per h_max value (a fact
+    appended while its bucket is being read is read in the same pass)."""
+    for p in init:
+        h[p] = 0
+    buckets = [list(init)]
+    v = 0
+    while v < len(buckets):
+        for p in buckets[v]:
+            if h[p] != v:
+                continue                    # improved since it was filed here
+            for o in pre_of[p]:
+                unsat[o] -= 1
+                if unsat[o] == 0:
+                    supp[o] = p
+                    sup[p].append(o)
+                    scost[o] = v
+                    w = v + cost[o]
+                    for e in eff[o]:
+                        if w < h[e]:
+                            h[e] = w
+                            while len(buckets) <= w:
+                                buckets.append([])
+                            buckets[w].append(e)
+        v += 1
 
 
 def _explore(init, h, cost, supp, scost, sup, unsat, pre_of, eff) -> None:
