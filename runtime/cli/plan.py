@@ -139,7 +139,7 @@ def _no_plan(result, args):
                      "reachable states", None, "check the goal against the actions' effects "
                      "and the initial state")
     if all(r.status == TIMEOUT for r in results):
-        ruled = "; ".join(_ruled_out(r) for r in results)
+        ruled = "; ".join(_ruled_out(r) for r in sorted(results, key=lambda r: r.engine))
         return error("E613", f"time limit of {args.time_limit:g} s reached: {ruled}", None,
                      "raise --time-limit" + ("" if args.engine == "auto" else
                                              ", or try --engine auto"))
