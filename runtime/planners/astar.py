@@ -151,7 +151,7 @@ class AStarPlanner:
                 plan = _path(sid, parent, via)
                 return SearchResult(SOLVED, plan, gs, st)
             st.expanded += 1
-            if not st.expanded & 255 and time.perf_counter() > deadline:
+            if time.perf_counter() > deadline:     # ~50 ns: cheap next to one LM-cut
                 st.seconds = time.perf_counter() - t0
                 return SearchResult(TIMEOUT, None, INF, st)
             for a, t, c in succ(state):
@@ -161,7 +161,7 @@ class AStarPlanner:
                 if tid is None:
                     th = time.perf_counter()
                     if incremental:
-                        lms[tid := len(states)] = lt = []
+                        lms[len(states)] = lt = []
                         ht = cuts(t, lt, None, mine, a.id)[0]
                     else:
                         ht = cuts(t)[0]
