@@ -167,7 +167,7 @@ class LMCut:
                 cost[o] -= m
             if landmarks is not None:
                 landmarks.append((m, frozenset(cut)))
-            _decrease(cut, h, cost, supp, scost, sup, pre, pre_of, eff)
+            _decrease(cut, h, cost, supp, scost, sup, pre, eff)
         return total, True
 
 
@@ -261,7 +261,7 @@ def _cut(init, cost, supp, sup, eff, eff_of, goal, n_facts) -> list[int]:
     return cut
 
 
-def _decrease(cut, h, cost, supp, scost, sup, pre, pre_of, eff) -> None:
+def _decrease(cut, h, cost, supp, scost, sup, pre, eff) -> None:
     """Incremental h_max after the costs of ``cut`` went down (Fast Downward's
     ``first_exploration_incremental``)."""
     heap = []
@@ -275,7 +275,7 @@ def _decrease(cut, h, cost, supp, scost, sup, pre, pre_of, eff) -> None:
         v, p = heappop(heap)
         if v > h[p]:
             continue
-        for o in pre_of[p]:
+        for o in sup[p]:                    # (not pre_of[p]: only p's supported ones)
             if supp[o] != p or scost[o] <= v:
                 continue
             best, bp = -1, -1
