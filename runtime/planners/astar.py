@@ -119,6 +119,8 @@ class AStarPlanner:
         self.successors = Successors(problem, self.unit)
 
     def plan(self, time_limit: float = INF) -> SearchResult:
+        """The search; one function on purpose: it is the hot loop, and locals are Python's
+        fastest names. Nodes are parallel lists indexed by state id."""
         t0 = time.perf_counter()
         deadline = t0 + time_limit
         st = SearchStats()
