@@ -27,18 +27,12 @@ IPC = [("depot", "task03"), ("elevators", "task03"), ("freecell", "task02"),
        ("freecell", "task03")]
 
 
-def _tasks(tmp_path: Path) -> list[tuple[str, Path, Path]]:
-    (tmp_path / "gripper.pddl").write_text(GRIPPER_DOMAIN)
-    out = []
-    for balls in (4, 6, 8, 10):
-        p = tmp_path / f"gripper-{balls}.pddl"
-        p.write_text(gripper_problem(balls))
-        out.append((f"gripper-{balls}", tmp_path / "gripper.pddl", p))
+def _tasks() -> list[tuple[str, str | None, str]]:
+    """(name, IPC folder or None for generated gripper, problem)"""
+    out = [(f"gripper-{balls}", None, str(balls)) for balls in (4, 6, 8)]
     root = os.environ.get("TMPC_IPC_DIR")
     for domain, task in IPC:
-        folder = Path(root or "/nonexistent") / domain
-        if (folder / f"{task}.pddl").is_file():
-            out.append((f"{domain} {task}", folder / "domain.pddl", folder / f"{task}.pddl"))
+        out.append((f"{domain} {task}", str(Path(root or "/nonexistent") / domain), task))
     return out
 
 
@@ -52,25 +46,39 @@ def _run(gp, engine: str):
     return r, seconds
 
 
-def test_sat_against_astar_against_auto(tmp_path):
-    if not os.environ.get("TMPC_IPC_DIR"):
-        print("\nTMPC_IPC_DIR not set: gripper only")
-    rows = []
-    for name, domain, problem in _tasks(tmp_path):
-        gp = ground(load_checked([domain, problem]))
-        sat, sat_s = _run(gp, "sat")
-        astar, astar_s = _run(gp, "astar")
-        auto, auto_s = _run(gp, "auto")
-        lengths = {len(r.actions) for r in (sat, astar, auto) if r.solved}
-        assert len(lengths) <= 1, f"{name}: lengths differ {lengths}"
-        st = astar.detail
-        rows.append([name, len(gp.actions), lengths.pop() if lengths else "-",
-                     _time(sat, sat_s), _time(astar, astar_s),
-                     f"{st.expanded:,}", f"{st.expansions_per_s:,.0f}",
-                     f"{st.h_seconds / max(st.seconds, 1e-9):.0%}",
-                     f"{_time(auto, auto_s)} ({auto.engine})"])
+ROWS: list[list] = []
+
+
+@pytest.mark.timeout(4 * LIMIT + 120)
+@pytest.mark.parametrize("name,folder,task", _tasks(), ids=[t[0] for t in _tasks()])
+def test_sat_against_astar_against_auto(tmp_path, name, folder, task):
+    if folder is None:
+        domain, problem = tmp_path / "gripper.pddl", tmp_path / "p.pddl"
+        domain.write_text(GRIPPER_DOMAIN)
+        problem.write_text(gripper_problem(int(task)))
+    else:
+        domain, problem = Path(folder) / "domain.pddl", Path(folder) / f"{task}.pddl"
+        if not problem.is_file():
+            pytest.skip("set TMPC_IPC_DIR to a folder of IPC tasks (pyperplan's benchmarks/)")
+    gp = ground(load_checked([domain, problem]))
+    sat, sat_s = _run(gp, "sat")
+    astar, astar_s = _run(gp, "astar")
+    auto, auto_s = _run(gp, "auto")
+    lengths = {len(r.actions) for r in (sat, astar, auto) if r.solved}
+    assert len(lengths) <= 1, f"{name}: lengths differ {lengths}"
+    st = astar.detail
+    ROWS.append([name, len(gp.actions), lengths.pop() if lengths else "-",
+                 _time(sat, sat_s), _time(astar, astar_s), f"{st.expanded:,}",
+                 f"{st.expansions_per_s:,.0f}", f"{st.h_seconds / max(st.seconds, 1e-9):.0%}",
+                 f"{_time(auto, auto_s)} ({auto.engine})"])
+    print()
+    print(ROWS[-1])
+
+
+def test_the_table():
+    """Runs after the tasks above (file order): their table in one piece."""
     _table(["task", "actions", "length", "SAT s", "A* s", "A* expanded", "expansions/s",
-            "LM-cut share", "auto s (answered)"], rows)
+            "LM-cut share", "auto s (answered)"], ROWS)
 
 
 def test_astar_as_the_first_candidate_of_clutter(tmp_path):
