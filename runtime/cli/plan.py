@@ -24,8 +24,8 @@ from tmpc.lang.diagnostics import CheckError, InputError, TmpcError, error
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.lang.program import check_paths
 from tmpc.runtime.cli.output import print_diagnostics
-from tmpc.runtime.planners import ENGINES, Limits, simulate
-from tmpc.runtime.planners.engines import EXHAUSTED, SOLVED, TIMEOUT, UNREACHABLE
+from tmpc.runtime.planners import (ENGINES, EXHAUSTED, SOLVED, TIMEOUT, UNREACHABLE, Limits,
+                                   simulate)
 
 
 class NoPlanError(TmpcError):

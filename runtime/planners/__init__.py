@@ -78,6 +78,7 @@ _LAZY = {
     "FFHeuristic": "tmpc.runtime.planners.heuristic",
     "TaskPlanner": "tmpc.runtime.planners.taskplan", "simulate": "tmpc.runtime.planners.taskplan",
     "SOLVED": "tmpc.runtime.planners.taskplan", "TIMEOUT": "tmpc.runtime.planners.taskplan",
+    "EXHAUSTED": "tmpc.runtime.planners.taskplan",
     "UNREACHABLE": "tmpc.runtime.planners.taskplan",
     "AStarPlanner": "tmpc.runtime.planners.astar",
 }

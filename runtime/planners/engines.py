@@ -23,6 +23,7 @@ import multiprocessing.connection
 import os
 import time
 import traceback
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
@@ -138,7 +139,12 @@ def _race(problem: GroundProblem, limits: Limits, names: tuple[str, ...]) -> Eng
     for name in names:
         recv, send = ctx.Pipe(duplex=False)
         p = ctx.Process(target=_child, args=(name, problem, limits, send), daemon=True)
-        p.start()
+        with warnings.catch_warnings():
+            # fork is what shares the ground problem (its compiled conditions do not pickle);
+            # Python warns when JAX was imported first (tests, TMP runs): the children run no
+            # JAX code, so its threads' locks are never taken there
+            warnings.simplefilter("ignore", RuntimeWarning)
+            p.start()
         send.close()
         running[recv] = (name, p)
     done: list[EngineResult] = []
