@@ -154,6 +154,8 @@ def _no_plan(result, args):
 
 
 def _ruled_out(r) -> str:
+    if r.detail is None:
+        return "no engine answered within the time limit"
     if r.engine == "astar":
         s = r.detail
         return (f"A* expanded {s.expanded:,} states, no plan costs less than {s.f_bound:g}"
