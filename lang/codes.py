@@ -126,8 +126,8 @@ _TABLE = (
     Code("E605", ERROR, "a domain without a problem given where a ground problem is needed"),
 
     # Task planning
-    Code("E610", ERROR, "`--min-steps`/`--max-steps` negative or out of order, or `--time-limit` "
-                        "not positive (exit 2)"),
+    Code("E610", ERROR, "`--min-steps`/`--max-steps` negative or out of order, `--time-limit` "
+                        "not positive, or `--min-steps` with `--engine astar` (exit 2)"),
     Code("E611", ERROR, "no plan: the goal is unreachable even ignoring delete effects; names the "
                         "goal atoms no action sequence makes true (exit 3)"),
     Code("E612", ERROR, "no plan of any length up to `--max-steps` (every horizon proven "
@@ -136,6 +136,8 @@ _TABLE = (
     Code("E614", ERROR, "the plan file cannot be written"),
     Code("E615", ERROR, "the two files given to `tmpc plan` are not one domain and one problem "
                         "for it"),
+    Code("E616", ERROR, "no plan exists: A* (`--engine astar` or `auto`) explored every "
+                        "reachable state (exit 3)"),
     Code("W610", WARNING, "an action whose precondition is contradictory (unsatisfiable as a "
                           "propositional formula): it can never be applied"),
     Code("W611", WARNING, "an action none of whose ground instances is reachable in the problem "

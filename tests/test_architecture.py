@@ -27,6 +27,7 @@ RANK = {"tmpc.lang": 0, "tmpc.stdlib": 0, "tmpc.compiler": 1, "tmpc.runtime": 2,
         "tmpc.runtime.cli": 3}
 #: modules whose functions may import tmpc modules lazily (start-up time, said in a comment)
 LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
+             "tmpc.runtime.planners.engines",   # the parser reads ENGINES; Z3 loads with SAT
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
              "tmpc.runtime.editor.protocol"}   # the worker answers `ping` before the compiler loads

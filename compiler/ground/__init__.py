@@ -1,5 +1,6 @@
 """tmpc.compiler.ground: a checked program -> :class:`GroundProblem` (objects, atoms, ground actions
-with discrete and geometric parts, derived axioms), pruned by relaxed reachability.
+with discrete and geometric parts, derived axioms), pruned by relaxed reachability; and LM-cut over
+its delete relaxation (:class:`LMCut`).
 """
 
 from tmpc.compiler.ground.build import build
@@ -18,6 +19,7 @@ from tmpc.compiler.ground.formula import conjuncts as conjuncts
 from tmpc.compiler.ground.formula import geo_atoms as geo_atoms
 from tmpc.compiler.ground.formula import relaxed_holds as relaxed_holds
 from tmpc.compiler.ground.formula import small_dnf as small_dnf
+from tmpc.compiler.ground.lmcut import LMCut as LMCut
 from tmpc.compiler.ground.problem import MAX_BINDINGS as MAX_BINDINGS
 from tmpc.compiler.ground.problem import GroundAction as GroundAction
 from tmpc.compiler.ground.problem import GroundingError as GroundingError

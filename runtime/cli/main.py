@@ -18,7 +18,7 @@ from typing import Callable
 from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.cli.output import print_diagnostics
 from tmpc.runtime.interrupts import install as install_interrupts
-from tmpc.runtime.planners import PLANNERS
+from tmpc.runtime.planners import ENGINES, PLANNERS
 
 # ---------------------------------------------------------------------------------------------
 # commands
@@ -193,12 +193,16 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("problem", metavar="PROBLEM")
         p.add_argument("-o", "--output", metavar="PLAN", help="write the plan here (default: "
                        "stdout)")
-        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try")
-        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try")
+        p.add_argument("--engine", default="sat", choices=sorted(ENGINES),
+                       help="default: sat. " + "; ".join(
+                           f"{k}: {v.summary}" for k, v in sorted(ENGINES.items())))
+        p.add_argument("--min-steps", type=int, default=0, help="first horizon to try (SAT)")
+        p.add_argument("--max-steps", type=int, default=200, help="last horizon to try (SAT)")
         p.add_argument("--time-limit", type=float, default=300.0, metavar="S",
                        help="give up after S seconds (exit 3)")
         p.add_argument("-v", "--verbose", action="store_true",
-                       help="statistics per horizon: clauses, encoding and solve time")
+                       help="the engine that answered and its statistics: per horizon for SAT "
+                       "(clauses, encoding and solve time), expansions/s and heuristic time for A*")
     elif name == "run":
         p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
                        "TOML, tmit-star spec JSON) or a compiled artifact (.tmpa)")

@@ -1,5 +1,6 @@
-"""tmpc.runtime.planners: the planner registry and the planners (unified, ch. 2), the FF heuristic
-and the incremental-SAT task planner.
+"""tmpc.runtime.planners: the planner registry and the planners (unified, ch. 2), the FF heuristic,
+the incremental-SAT task planner, A* with LM-cut and the registry of `tmpc plan`'s engines
+(:data:`ENGINES`, :mod:`.engines`).
 
 :data:`PLANNERS` maps a name to a :class:`PlannerSpec`: its factory and a one-line summary. The
 CLI's ``--planner`` choices, ``tmpc bench --planners`` and the registry test all read it; there
@@ -15,6 +16,10 @@ from dataclasses import dataclass
 from typing import Callable, Mapping
 
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.planners.engines import ENGINES as ENGINES
+from tmpc.runtime.planners.engines import EngineResult as EngineResult
+from tmpc.runtime.planners.engines import EngineSpec as EngineSpec
+from tmpc.runtime.planners.engines import Limits as Limits
 
 
 @dataclass(frozen=True)
@@ -73,7 +78,9 @@ _LAZY = {
     "FFHeuristic": "tmpc.runtime.planners.heuristic",
     "TaskPlanner": "tmpc.runtime.planners.taskplan", "simulate": "tmpc.runtime.planners.taskplan",
     "SOLVED": "tmpc.runtime.planners.taskplan", "TIMEOUT": "tmpc.runtime.planners.taskplan",
+    "EXHAUSTED": "tmpc.runtime.planners.taskplan",
     "UNREACHABLE": "tmpc.runtime.planners.taskplan",
+    "AStarPlanner": "tmpc.runtime.planners.astar",
 }
 
 
@@ -85,4 +92,4 @@ def __getattr__(name: str):
     return getattr(importlib.import_module(module), name)
 
 
-__all__ = ["PLANNERS", "PlannerSpec", "make_planner", "unknown_planner", *_LAZY]
+__all__ = ["PLANNERS", "PlannerSpec", "ENGINES", "EngineSpec", "EngineResult", "Limits", "make_planner", "unknown_planner", *_LAZY]

@@ -303,20 +303,31 @@ class TaskPlanner:
             guard = threading.Timer(max(0.0, deadline - t0) + 0.05, self.solver.ctx.interrupt)
             guard.daemon = True
             guard.start()
+        pushed = False
         try:
             if self.goal_mode == "scope":
                 self.solver.push()
+                pushed = True
                 self.solver.from_string(text + "".join(f"(assert {lit})" for lit in lits) +
                                         self.encoding.landmark_text(k))
                 r = self.solver.check()
                 model = self.solver.model() if r == z3.sat else None
                 self.solver.pop()
+                pushed = False
             else:
                 if k not in self._assumed:
                     self._assumed.add(k)
                     self.solver.from_string(text + self.encoding.landmark_text(k, f"h@{k}"))
                 r = self.solver.check(*[_lit_expr(z3, lit, self.ctx) for lit in lits])
                 model = self.solver.model() if r == z3.sat else None
+        except z3.Z3Exception:
+            # the timer's interrupt came outside `check` (in push or while parsing): Z3 raises
+            # "canceled" there instead of answering unknown
+            if deadline is None or time.perf_counter() < deadline:
+                raise
+            if pushed:
+                self.solver.pop()
+            r, model = "unknown", None
         finally:
             if guard is not None:
                 guard.cancel()

@@ -101,3 +101,34 @@ def large_problem(target_bytes: int) -> str:
             out.append(f"    (delivered pkg{i})")
     out += ["  )", "  (:goal (and (delivered pkg0) (at pkg1 loc0))))"]
     return "\n".join(out) + "\n"
+
+
+#: the classic two-room gripper domain (STRIPS, typed), written here from its well-known
+#: definition: a robot with two grippers carries balls from one room to the other
+GRIPPER_DOMAIN = """(define (domain gripper)
+  (:requirements :strips :typing)
+  (:types room ball gripper)
+  (:predicates (at-robby ?r - room) (at ?b - ball ?r - room) (free ?g - gripper)
+               (carry ?b - ball ?g - gripper))
+  (:action move :parameters (?from ?to - room)
+    :precondition (at-robby ?from)
+    :effect (and (at-robby ?to) (not (at-robby ?from))))
+  (:action pick :parameters (?b - ball ?r - room ?g - gripper)
+    :precondition (and (at ?b ?r) (at-robby ?r) (free ?g))
+    :effect (and (carry ?b ?g) (not (at ?b ?r)) (not (free ?g))))
+  (:action drop :parameters (?b - ball ?r - room ?g - gripper)
+    :precondition (and (carry ?b ?g) (at-robby ?r))
+    :effect (and (at ?b ?r) (free ?g) (not (carry ?b ?g)))))
+"""
+
+
+def gripper_problem(n_balls: int) -> str:
+    """All ``n_balls`` balls from room a to room b (the IPC-1998 task of that size; optimal
+    length ``4 * n/2 - 1`` moves and carries for even ``n``: 11, 17, 23 for 4, 6, 8)."""
+    balls = " ".join(f"ball{i}" for i in range(1, n_balls + 1))
+    at = " ".join(f"(at ball{i} rooma)" for i in range(1, n_balls + 1))
+    goal = " ".join(f"(at ball{i} roomb)" for i in range(1, n_balls + 1))
+    return (f"(define (problem gripper-{n_balls}) (:domain gripper)\n"
+            f"  (:objects rooma roomb - room {balls} - ball left right - gripper)\n"
+            f"  (:init (at-robby rooma) (free left) (free right) {at})\n"
+            f"  (:goal (and {goal})))\n")

@@ -1,4 +1,5 @@
-"""`tmpc plan`: IPC plan output that replays, exit codes, messages, atomic output."""
+"""`tmpc plan`: IPC plan output that replays, exit codes, messages, atomic output; every engine
+of the registry, the portfolio, engine errors."""
 
 from __future__ import annotations
 
@@ -9,10 +10,12 @@ import sys
 
 import pytest
 
+from tests.bench.gen import GRIPPER_DOMAIN, gripper_problem
 from tests.support import EXAMPLES, FIXTURES
 from tmpc.compiler.ground import ground
 from tmpc.lang.program import load_checked
 from tmpc.runtime.cli.main import main
+from tmpc.runtime.planners import ENGINES
 
 BLOCKS = [str(EXAMPLES / "blocksworld" / "domain.pddl"), str(EXAMPLES / "blocksworld" / "p01.pddl")]
 ONCE = """(define (domain once) (:requirements :strips)
@@ -146,3 +149,76 @@ def test_bad_inputs_give_diagnostics_without_traceback(tmp_path):
       (:action a :precondition (p) :effect (decrease (fuel) 1)))""",
                      "(define (problem q) (:domain n) (:init (p) (= (fuel) 3)) (:goal (p)))")
     assert main(["plan", *numeric]) == 1
+
+
+# ---- engines ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_every_engine_plans_and_the_plan_replays(engine, capsys):
+    assert main(["plan", *BLOCKS, "--engine", engine]) == 0
+    out, err = capsys.readouterr()
+    assert replay(BLOCKS, out) == 6 and out.endswith("; cost = 6 (unit cost)\n; length 6\n")
+    assert "plan of length 6 (shortest possible) from the " in err
+
+
+def test_engines_agree_on_lengths_of_the_classical_fixtures(capsys):
+    for d in sorted((FIXTURES / "classical").iterdir()):
+        files = [str(d / "domain.pddl"), str(next(d.glob("p*.pddl")))]
+        lengths = []
+        for engine in ("sat", "astar"):
+            assert main(["plan", *files, "--engine", engine]) == 0
+            lengths.append(replay(files, capsys.readouterr().out))
+        if "costs" not in d.name and "power" not in d.name:
+            assert lengths[0] == lengths[1], d.name
+
+
+def test_astar_minimizes_action_costs(capsys):
+    d = FIXTURES / "classical" / "rover-costs"
+    files = [str(d / "domain.pddl"), str(d / "p01.pddl")]
+    for engine in ("astar", "auto"):
+        assert main(["plan", *files, "--engine", engine]) == 0
+        out, err = capsys.readouterr()
+        assert replay(files, out) == 11
+        assert "; cost = 18 (general cost)\n; length 11 (cheapest possible)\n" in out
+        assert "and cost 18 (cheapest possible) from the astar engine" in err
+
+
+def test_verbose_names_the_engine_and_its_statistics(capsys):
+    assert main(["plan", *BLOCKS, "--engine", "astar", "-v"]) == 0
+    err = capsys.readouterr().err
+    assert "astar: solved" in err and "expanded (" in err and "/s)" in err and "LM-cut" in err
+    assert main(["plan", *BLOCKS, "--engine", "auto", "-v"]) == 0
+    err = capsys.readouterr().err
+    assert "engine auto: " in err and "answered first" in err
+
+
+def test_astar_proves_there_is_no_plan(tmp_path, capsys):
+    files = _files(tmp_path, ONCE, "(define (problem p) (:domain once) (:init (token)) "
+                                   "(:goal (and (x) (y))))")
+    for engine in ("astar", "auto"):
+        assert main(["plan", *files, "--engine", engine]) == 3
+        assert "error[E616]: no plan: A* explored all 3 reachable states" in \
+            capsys.readouterr().err
+
+
+def test_engine_usage_errors(capsys):
+    assert main(["plan", *BLOCKS, "--engine", "astar", "--min-steps", "2"]) == 2
+    assert "E610" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["plan", *BLOCKS, "--engine", "fd"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'fd'" in capsys.readouterr().err
+
+
+def test_auto_with_min_steps_is_sat(capsys):
+    assert main(["plan", *BLOCKS, "--engine", "auto", "--min-steps", "8"]) == 0
+    out, err = capsys.readouterr()
+    assert replay(BLOCKS, out) == 8 and "from the sat engine" in err
+
+
+def test_time_limit_of_every_engine(tmp_path, capsys):
+    files = _files(tmp_path, GRIPPER_DOMAIN, gripper_problem(14))
+    for engine in ("astar", "auto"):
+        assert main(["plan", *files, "--engine", engine, "--time-limit", "0.5"]) == 3
+        err = capsys.readouterr().err
+        assert "error[E613]: time limit of 0.5 s reached: " in err and "A* expanded " in err
+        assert "no plan costs less than " in err
