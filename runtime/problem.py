@@ -175,10 +175,12 @@ class PlanningProblem:
                 "and problem shows the symbolic side alone)"), self.world.files)
 
     def start_warm_up(self, rng: np.random.Generator) -> None:
-        """Begin :meth:`warm_up`'s projector calls on background threads: loading a kernel is
+        """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
-        checks and the collision warm-up on this thread; two of them load two projectors at once
-        (tmit-star clutter: 0.67 -> 0.35 s of waiting; ~45 MB more peak memory, measured)."""
+        checks and the collision warm-up on this thread. One thread, not two: two loaded two
+        projectors at once, ~0.1 s sooner, but three executables loading together set the
+        run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two, 380-381 MiB
+        with one; first-call compile 0.60-0.70 s against 0.71-0.82 s, measured 2026-12-03)."""
         if self._warming is not None:
             return
         starts = self.uniform(rng, PROJECTION_BATCH)
@@ -190,7 +192,7 @@ class PlanningProblem:
             calls.append((proj, self.compiled.bind_args(formula, list(action.args))))
         if self.goal_formula() is not None:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
-        pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="tmpc-warm-up")
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="tmpc-warm-up")
         self._warming = [pool.submit(lambda f=f, a=a: np.asarray(
             f(starts, mode.obj_T, mode.obj_parent, a)[0])) for f, a in calls]
         pool.shutdown(wait=False)
