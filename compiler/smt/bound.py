@@ -33,7 +33,9 @@ def lmcut(problem: GroundProblem, budget_s: float = 1.0) -> Landmarks | None:
     if value == float("inf"):
         return None
     action = h.task.action
-    return Landmarks([frozenset(action[o] for o in cut) for _, cut in cuts])
+    # in a canonical order (by their smallest action id), not the order the cuts were found
+    # in: the SAT encoding lists them in this order, and Z3's first model depends on it
+    return Landmarks(sorted((frozenset(action[o] for o in cut) for _, cut in cuts), key=min))
 
 
 @dataclass(frozen=True)
