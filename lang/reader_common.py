@@ -117,24 +117,11 @@ class ReaderBase:
         while i < n:
             x = items[i]
             if is_sym(x) and x.text.startswith("-") and not is_number(x):
-                glued = x.text[1:]
-                if glued:
-                    tref = A.TypeRef((A.Name(glued, span=Span(x.span.path, x.span.start + 1,
-                                                              x.span.end)),), span=x.span)
-                    i += 1
-                elif i + 1 < n and not is_var(items[i + 1]):
-                    tref = self.type_ref(items[i + 1])
-                    i += 2
-                elif i + 1 < n:
-                    self.err("E110", f"`-` in {what} must be followed by a type, found "
-                             f"`{items[i + 1].text}`", x.span.cover(items[i + 1].span),
-                             "write `?x - type`; a ?variable cannot be a type")
-                    i += 1
+                tref, i = self._type_after_dash(items, i, what)
+                if tref is None:
+                    if i < 0:
+                        break
                     continue
-                else:
-                    self.err("E110", f"`-` at the end of {what} must be followed by a type",
-                             x.span, "write `?x - type` (or remove the `-`)")
-                    break
                 if not pending:
                     # In parameter lists this is a real mistake (the names after it stay untyped);
                     # in object lists IPC files have it harmlessly (woodworking `- board`).
@@ -152,6 +139,25 @@ class ReaderBase:
             i += 1
         out.extend(A.Typed(nm, None, span=nm.span) for nm in pending)
         return tuple(out)
+
+    def _type_after_dash(self, items, i: int, what: str) -> tuple[A.TypeRef | None, int]:
+        """At the `-` symbol ``items[i]`` of a typed list: (its type, the index after it); or,
+        after an E110, (None, the index to go on from), or (None, -1): stop reading."""
+        x, n = items[i], len(items)
+        glued = x.text[1:]
+        if glued:
+            return A.TypeRef((A.Name(glued, span=Span(x.span.path, x.span.start + 1,
+                                                      x.span.end)),), span=x.span), i + 1
+        if i + 1 < n and not is_var(items[i + 1]):
+            return self.type_ref(items[i + 1]), i + 2
+        if i + 1 < n:
+            self.err("E110", f"`-` in {what} must be followed by a type, found "
+                     f"`{items[i + 1].text}`", x.span.cover(items[i + 1].span),
+                     "write `?x - type`; a ?variable cannot be a type")
+            return None, i + 1
+        self.err("E110", f"`-` at the end of {what} must be followed by a type",
+                 x.span, "write `?x - type` (or remove the `-`)")
+        return None, -1
 
     def _packed_typed_list(self, items: Packed, what: str) -> TypedNames:
         """:meth:`typed_list` of names kept as columns (a large problem's `:objects`): a plain
@@ -176,24 +182,11 @@ class ReaderBase:
                     continue
             x = items[i]
             if is_sym(x) and x.text.startswith("-") and not is_number(x):
-                glued = x.text[1:]
-                if glued:
-                    tref = A.TypeRef((A.Name(glued, span=Span(x.span.path, x.span.start + 1,
-                                                              x.span.end)),), span=x.span)
-                    i += 1
-                elif i + 1 < n and not is_var(items[i + 1]):
-                    tref = self.type_ref(items[i + 1])
-                    i += 2
-                elif i + 1 < n:
-                    self.err("E110", f"`-` in {what} must be followed by a type, found "
-                             f"`{items[i + 1].text}`", x.span.cover(items[i + 1].span),
-                             "write `?x - type`; a ?variable cannot be a type")
-                    i += 1
+                tref, i = self._type_after_dash(items, i, what)
+                if tref is None:
+                    if i < 0:
+                        break
                     continue
-                else:
-                    self.err("E110", f"`-` at the end of {what} must be followed by a type",
-                             x.span, "write `?x - type` (or remove the `-`)")
-                    break
                 if not pending:
                     self.sink.add(warning("W009", f"type `{_type_text(tref)}` in {what} follows "
                                           "no name", x.span,
