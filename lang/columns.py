@@ -9,6 +9,7 @@ AST nodes; the checker reads the columns directly (:meth:`InitFacts.facts`).
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from array import array
 from collections.abc import Sequence
 
@@ -49,8 +50,9 @@ class _Columns(Sequence):
             k = ref[j]
             yield others[j] if k < 0 else build(j, k)
 
+    @abstractmethod
     def build(self, j: int, k: int):
-        raise NotImplementedError
+        """The AST node of entry ``j``, packed as child ``k`` of ``src`` (each subclass's shape)."""
 
     def _span(self, t: int) -> Span:
         src = self.src
