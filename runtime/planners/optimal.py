@@ -84,6 +84,11 @@ class OptimalOptions:
     corridor: float = 0.5              # share of samples around entry-exit segments (tmpc's)
     corridor_sigma: float = 0.05       # their noise, as a fraction of each coordinate's range
     search_budget: int = 3000          # edges one search may check before it waits for a batch
+    escape_tries: int = 16             # short motions tried out of each new portal (tmpc's; 0: off)
+    escape_rounds: int = 2             # ... and again out of the free ends kept
+    escape_keep: int = 2               # free ends kept per vertex and round
+    #: their lengths: the largest coordinate step, as fractions of each coordinate's range
+    escape_steps: tuple = (0.005, 0.02, 0.06)
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
@@ -136,6 +141,9 @@ class OptimalPlanner:
         self.node_mode: list[int] = []
         self.mode_vertices: dict[int, list[int]] = {}
         self.bridge: dict[int, tuple[int, object]] = {}     # transition vertex -> (bridge, action)
+        self.stubs: list[tuple[int, int, float]] = []       # escape edges (valid) and costs
+        self._stub_count: dict[int, int] = {}               # stub vertices per mode
+        self._to_escape: list[int] = []                     # portals made since the last escape
         self.goals: set[int] = set()
         # modes
         self.modes: list[Mode] = []
@@ -170,7 +178,7 @@ class OptimalPlanner:
         self.counts = {"batches": 0, "task_plans": 0, "samples": 0, "projections": 0,
                        "transitions": 0, "transition_failures": 0, "edges_checked": 0,
                        "edges_confirmed": 0, "edges_invalid": 0, "searches": 0,
-                       "searches_cut": 0, "evidence": 0}
+                       "searches_cut": 0, "evidence": 0, "escapes": 0}
         self._t0 = time.perf_counter()
 
     @classmethod
@@ -201,13 +209,15 @@ class OptimalPlanner:
         return cls(problem, seed=seed, options=opts)
 
     # ---- vertices and modes ----------------------------------------------------------------
-    def _add_vertex(self, q: np.ndarray, mode: Mode) -> int:
+    def _add_vertex(self, q: np.ndarray, mode: Mode, listed: bool = True) -> int:
+        """A new vertex; ``listed``: among its mode's vertices (nearest-neighbour edges)."""
         i = len(self.node_mode)
         if i == len(self.Q):
             self.Q = np.concatenate([self.Q, np.zeros_like(self.Q)])
         self.Q[i] = q
         self.node_mode.append(mode.id)
-        self.mode_vertices[mode.id].append(i)
+        if listed:
+            self.mode_vertices[mode.id].append(i)
         return i
 
     def _mode(self, sym: int, poses, held, parent: Mode, action) -> tuple[Mode, bool]:
@@ -311,7 +321,9 @@ class OptimalPlanner:
             if mid in self.sampled:
                 continue
             self.sampled.add(mid)
-            if self._sample_mode(self.modes[mid]):
+            reached = self._sample_mode(self.modes[mid])
+            self._escape()
+            if reached:
                 return False
         return not (self.frontier or self.queue)
 
@@ -356,7 +368,8 @@ class OptimalPlanner:
         p = self.p
         Q = self._uniform_valid(mode, self.opt.batch_size)
         ids = [self._add_vertex(q, mode) for q in Q]
-        radius = self._radius(len(self.mode_vertices[mode.id]))
+        # stubs are no uniform samples: the PRM* radius counts the others
+        radius = self._radius(len(self.mode_vertices[mode.id]) - self._stub_count.get(mode.id, 0))
         reached = False
         for tr in self.transitions.get(mode.sym, ()):
             if not self._budget(tr, mode):
@@ -408,12 +421,14 @@ class OptimalPlanner:
         tr.by_mode[mode.id] = tr.by_mode.get(mode.id, 0) + 1
         self.counts["transitions"] += 1
         v = self._add_vertex(q, mode) if vertex is None else vertex
+        self._to_escape.append(v)
         if tr.action is None:
             self.goals.add(v)
             return True
         new = self.p.successor_mode(mode, tr.action, q, len(self.modes))
         succ, fresh = self._mode(new.sym, new.poses, new.held, mode, tr.action)
         b = self._add_vertex(q, succ)
+        self._to_escape.append(b)
         self.bridge[v] = (b, tr.action)
         if fresh:
             self.frontier.append(succ.id)
@@ -421,6 +436,56 @@ class OptimalPlanner:
             self.goals.add(b)
             return True
         return False
+
+    def _escape(self) -> None:
+        """Escape stubs (tmpc's addition): short free motions out of the portal vertices made
+        since the last call (transition, bridge and goal vertices), kept as vertices whose
+        edges are known valid.
+
+        A portal is often nearly trapped: a grasped object still rests on its support, or an
+        open gripper still surrounds the object it released, so the first step of almost every
+        nearest-neighbour edge (1-3 rad long) collides (clutter-8, seed 2: a bridge whose 24
+        edges all failed kept four searches from a solution) while steps of a few hundredths
+        of a radian are free. Per vertex, ``escape_tries`` random directions, each scaled to
+        one of ``escape_steps`` (the largest coordinate step over that coordinate's range), are
+        checked at the full resolution, ends included, in one batched call per round; the
+        ``escape_keep`` longest free ones are kept, and tried from again, ``escape_rounds``
+        times. Only the last stubs of each chain get nearest-neighbour edges (the ones before
+        them join it to the portal alone), so a portal adds a few vertices to the searches,
+        not a cluster."""
+        todo, self._to_escape = self._to_escape, []
+        opt, p = self.opt, self.p
+        if not todo or opt.escape_tries <= 0:
+            return
+        span = np.where(p.wraps, 2 * np.pi, np.maximum(p.upper - p.lower, 1e-9))
+        steps = np.asarray(opt.escape_steps, float)
+        made, parents = [], set()
+        for _ in range(opt.escape_rounds):
+            items = []
+            for v in todo:
+                d = self.rng.normal(size=(opt.escape_tries, self.dim))
+                d /= np.maximum(np.abs(d / span).max(1, keepdims=True), 1e-12)
+                length = steps[self.rng.integers(len(steps), size=opt.escape_tries)]
+                items.append((v, self.modes[self.node_mode[v]],
+                              p.wrap(self.Q[v] + d * length[:, None]), length))
+            oks = p.motions_valid_many([(mode, np.broadcast_to(self.Q[v], Q1.shape), Q1)
+                                        for v, mode, Q1, _ in items], opt.resolution, ends=True)
+            todo = []
+            for (v, mode, Q1, length), ok in zip(items, oks):
+                free = np.nonzero(ok)[0]
+                for i in free[np.argsort(-length[free], kind="stable")][:opt.escape_keep]:
+                    w = self._add_vertex(Q1[i], mode, listed=False)
+                    self.stubs.append((v, w, float(p.cost(Q1[i], self.Q[v]))))
+                    self.edge_ok[_key(v, w)] = self._fine[_key(v, w)] = True
+                    parents.add(v)
+                    todo.append(w)
+            made += todo
+        for w in made:
+            if w not in parents:
+                mid = self.node_mode[w]
+                self.mode_vertices[mid].append(w)
+                self._stub_count[mid] = self._stub_count.get(mid, 0) + 1
+        self.counts["escapes"] += len(made)
 
     def _fail(self, tr: Transition, mode: Mode, q: np.ndarray, held: bool,
               distance: float) -> None:
@@ -466,6 +531,11 @@ class OptimalPlanner:
             rows.append(src)
             cols.append(np.array([self.bridge[v][0] for v in src], np.int64))
             vals.append(np.zeros(len(src)))
+        if self.stubs:
+            a, b, w = (np.array(x) for x in zip(*self.stubs))
+            rows += [a.astype(np.int64), b.astype(np.int64)]
+            cols += [b.astype(np.int64), a.astype(np.int64)]
+            vals += [w, w]
         if self.opt.portals:
             for a, b in self._portals().values():
                 ra, rb = np.meshgrid(a, b, indexing="ij")

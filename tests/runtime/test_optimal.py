@@ -110,6 +110,34 @@ def test_first_solutions_validate_and_are_deterministic(clutter_problem_1, tmp_p
     assert np.array_equal(np.array([x[0] for x in a.path]), np.array([x[0] for x in b.path]))
 
 
+def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
+    """The search trusts escape stubs without checking them: each must be free at the
+    resolution under exact fcl (no first pass), inside its mode and no longer than the
+    longest escape step; only the last stub of a chain gets nearest-neighbour edges."""
+    from tmpc.runtime.collision import CollisionWorld
+
+    p = clutter_problem_1
+    planner, result = _solve(p, 0, first_solution=True)
+    assert result.status == "solved" and planner.counts["escapes"] == len(planner.stubs) > 0
+    exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
+                           tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
+                           first_pass=False)
+    span = np.where(p.wraps, 2 * np.pi, p.upper - p.lower)
+    parents = {a for a, _, _ in planner.stubs}
+    for a, b, cost in planner.stubs:
+        mid = planner.node_mode[b]
+        assert planner.node_mode[a] == mid
+        assert (b in planner.mode_vertices[mid]) == (b not in parents)
+        qa, qb = planner.Q[a], planner.Q[b]
+        assert np.abs(p.difference(qb, qa) / span).max() <= max(planner.opt.escape_steps) + 1e-9
+        assert cost == pytest.approx(float(p.cost(qb, qa)))
+    mode = planner.modes
+    for a, b, _ in planner.stubs[:60]:
+        m = mode[planner.node_mode[a]]
+        assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
+                                  poses=m.poses, attached=m.held, details=False).valid
+
+
 def _composite(problem, states) -> float:
     """tmit-star's composite length (../shared/baselines/tmit-star/cost.py), recomputed here
     from the plan's states: joints L2 + base xy + yaw the short way; unlike cost.py,
