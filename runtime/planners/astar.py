@@ -131,9 +131,15 @@ class AStarPlanner:
         index: dict[int, int] = {p.init: 0}
         states, g, hv, parent, via = [p.init], [0], [0.0], [-1], [None]
         closed_g: dict[int, float] = {}
+        compiled = self.h.compiled
+        packed = self.h.packed
         th = time.perf_counter()
-        lms[0] = []
-        hv[0] = st.h_init = cuts(p.init, lms[0])[0]
+        if compiled:
+            lms[0] = packed(p.init)
+            hv[0] = st.h_init = INF if lms[0][0] < 0 else int(lms[0][0])
+        else:
+            lms[0] = []
+            hv[0] = st.h_init = cuts(p.init, lms[0])[0]
         st.h_seconds += time.perf_counter() - th
         st.evaluated = 1
         heap = [] if hv[0] == INF else [(hv[0], hv[0], 0, 0, 0)]
@@ -162,7 +168,12 @@ class AStarPlanner:
                 tid = index.get(t)
                 if tid is None:
                     th = time.perf_counter()
-                    if incremental:
+                    if compiled:
+                        lt = packed(t, mine, a.id)
+                        ht = INF if lt[0] < 0 else int(lt[0])
+                        if incremental:
+                            lms[len(states)] = lt
+                    elif incremental:
                         lms[len(states)] = lt = []
                         ht = cuts(t, lt, None, mine, a.id)[0]
                     else:
