@@ -184,7 +184,7 @@ class LMCut:
 
     def packed(self, state: int, parent=None, applied: int = -1):
         """The compiled LM-cut (integral costs only): the state's landmarks packed in one
-        ``int64`` array ``[h, n, (cost, k, op_1..op_k) * n]``, ``h = -1`` for a relaxed dead
+        ``int32`` array ``[h, n, (cost, k, op_1..op_k) * n]``, ``h = -1`` for a relaxed dead
         end. ``parent`` (a parent's packed landmarks) and ``applied`` (the ground action from
         it) as in :meth:`cuts`."""
         if self._compiled is None:

@@ -13,7 +13,7 @@ Python version for non-integral costs and for the SAT planner's bound, which nee
 
 The task is one ``int32`` array (:func:`pack`): a header of offsets, then the CSR lists of
 preconditions, effects, the operators each fact is a precondition of and the operators adding
-each fact. Landmarks travel packed in one ``int64`` array, ``[h, n, (cost, k, op_1..op_k) * n]``
+each fact. Landmarks travel packed in one ``int32`` array (A* keeps one per open state), ``[h, n, (cost, k, op_1..op_k) * n]``
 (``h = -1`` for a relaxed dead end), so one call takes and returns one array each. Every
 per-call array is a view of one workspace allocated per task (:func:`workspace`) and never
 reassigned inside a loop, and the helpers are inlined: numba counts references of arrays that
@@ -52,10 +52,11 @@ def prepare(t, scale: int) -> tuple:
     workspace and its sizes (``scale`` times the defaults)."""
     # the decrease's heap keys are h * n_facts + fact, and h is at most the sum of the costs
     assert (sum(t.cost) + 1) * t.n_facts < 2**62, "action costs too large for the kernel"
+    assert sum(t.cost) < 2**31, "action costs too large for int32 landmarks"
     task = pack(t.pre, t.eff, t.pre_of, t.eff_of, t.n_facts, t.true_fact, t.goal_fact)
     sizes = workspace_sizes(task, len(t.pre), scale)
     return (lmcut, task, np.array(t.cost, np.int64), t.relevant_mask, (t.true_fact + 7) // 8,
-            np.zeros(2, np.int64), workspace(task, len(t.pre), sizes), sizes)
+            np.zeros(2, np.int32), workspace(task, len(t.pre), sizes), sizes)
 
 
 def pack(pre, eff, pre_of, eff_of, n_facts: int, true_fact: int, goal_fact: int) -> np.ndarray:
@@ -135,7 +136,7 @@ def lmcut(task, cost0, bits, parent, applied, ws, sizes):
     heap, at = ws[at: at + sizes[3]], at + sizes[3]
     out = ws[at: at + sizes[4]]
     if len(parent) > len(out):
-        return np.full(1, -2, np.int64)
+        return np.full(1, -2, np.int32)
     cost[:] = cost0
     n_lm, total, at = 0, 0, 2
     # the parent's landmarks without the applied operator: kept with their costs
@@ -174,10 +175,10 @@ def lmcut(task, cost0, bits, parent, applied, ws, sizes):
     n_sup = _explore(start, h, cost, supp, scost, unsat, sup_head, sup_tail, sup_op, sup_next,
                      ent_fact, ent_next, bhead, btail, pre_o, pof_o, pof_i, eff_o, eff_i)
     if n_sup < 0:
-        return np.full(1, -2, np.int64)
+        return np.full(1, -2, np.int32)
     if h[goal] == UNREACHED:
         out[0], out[1] = -1, 0
-        return out[:2].copy()
+        return out[:2].astype(np.int32)
     while h[goal] != 0:
         n_cut = _cut(start, cost, supp, sup_head, sup_op, sup_next, eff_o, eff_i, eof_o, eof_i,
                      goal, zone, before, in_cut, stack, cut)
@@ -188,7 +189,7 @@ def lmcut(task, cost0, bits, parent, applied, ws, sizes):
         for j in range(n_cut):
             cost[cut[j]] -= m
         if at + 2 + n_cut > len(out):
-            return np.full(1, -2, np.int64)
+            return np.full(1, -2, np.int32)
         out[at], out[at + 1] = m, n_cut
         out[at + 2: at + 2 + n_cut] = cut[:n_cut]
         at += 2 + n_cut
@@ -196,9 +197,9 @@ def lmcut(task, cost0, bits, parent, applied, ws, sizes):
         n_sup = _decrease(cut[:n_cut], h, cost, supp, scost, sup_head, sup_tail, sup_op,
                           sup_next, n_sup, pre_o, pre_i, eff_o, eff_i, heap)
         if n_sup < 0:
-            return np.full(1, -2, np.int64)
+            return np.full(1, -2, np.int32)
     out[0], out[1] = total, n_lm
-    return out[:at].copy()
+    return out[:at].astype(np.int32)
 
 
 @numba.njit(cache=True, inline="always")
