@@ -209,6 +209,14 @@ class LMCut:
         self._compiled = lmcut_kernel.prepare(self.task, scale)
 
 
+def load_kernel() -> None:
+    """Load the compiled LM-cut now (compile it, the first time on a machine: ~6 s of CPU), so
+    that the first state a search evaluates does not pay it; A* calls it before its clock."""
+    from tmpc.compiler.ground import lmcut_kernel   # numba: only where A* runs
+
+    lmcut_kernel.load()
+
+
 def _explore_buckets(init, h, cost, supp, scost, sup, unsat, pre_of, eff) -> None:
     """:func:`_explore` for integer costs: Dijkstra with one bucket per h_max value (a fact
     appended while its bucket is being read is read in the same pass)."""
@@ -343,4 +351,4 @@ def unpack(packed) -> tuple[int | float, list[tuple[int, frozenset[int]]]]:
     return h, out
 
 
-__all__ = ["LMCut", "RelaxedTask", "INF", "unpack"]
+__all__ = ["LMCut", "RelaxedTask", "INF", "load_kernel", "unpack"]

@@ -12,7 +12,8 @@ included (:class:`~tmpc.compiler.ground.GroundProblem`), geometric literals coun
   conditional effects, and every action of a domain with derived predicates, go through
   :meth:`GroundProblem.apply`.
 * **Heuristic**: LM-cut (:mod:`tmpc.compiler.ground.lmcut`), admissible, not consistent; its
-  value is cached per state.
+  value is cached per state. With integral costs it is the numba kernel
+  (:meth:`LMCut.packed`, the same values), and a state's landmarks are one int32 array.
 * **Search** as Fast Downward's ``astar(lmcut())``: the open list is ordered by ``f = g + h``,
   ties by lower ``h``, then first in, first out; the goal test is at expansion; a state reached
   again by a cheaper path is updated and, if it was already expanded, reopened (h is
@@ -25,7 +26,7 @@ import time
 from dataclasses import dataclass
 from heapq import heappop, heappush
 
-from tmpc.compiler.ground import GroundAction, GroundProblem, LMCut
+from tmpc.compiler.ground import GroundAction, GroundProblem, LMCut, load_kernel
 
 INF = float("inf")
 
@@ -117,6 +118,8 @@ class AStarPlanner:
         self.unit = (not problem.uses_costs) if unit is None else unit
         self.h = LMCut(problem, unit=self.unit)
         self.successors = Successors(problem, self.unit)
+        if self.h.compiled:                 # integral costs: numba's LM-cut, loaded before
+            load_kernel()                   # the search's clock starts
 
     def plan(self, time_limit: float = INF) -> SearchResult:
         """The search; one function on purpose: it is the hot loop, and locals are Python's
