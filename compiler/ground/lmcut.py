@@ -110,8 +110,9 @@ def _cost(c: float) -> int | float:
 
 class LMCut:
     """``h(state)``: the LM-cut value of a state bitset (``INF`` for a relaxed dead end);
-    :meth:`cuts` also returns the landmarks and can start from a parent state's. Keeps no state
-    between calls."""
+    :meth:`cuts` also returns the landmarks and can start from a parent state's; :meth:`packed`
+    is the compiled version. Keeps no state between calls (:meth:`packed` reuses one scratch
+    workspace: one instance is not for concurrent threads)."""
 
     def __init__(self, problem: GroundProblem, unit: bool | None = None):
         self.task = RelaxedTask(problem, not problem.uses_costs if unit is None else unit)
@@ -188,19 +189,19 @@ class LMCut:
         end. ``parent`` (a parent's packed landmarks) and ``applied`` (the ground action from
         it) as in :meth:`cuts`."""
         if self._compiled is None:
-            self._compile(1)
+            self._prepare(1)
         kernel, task, cost, mask, nbytes, none, ws, sizes = self._compiled
         bits = (state & mask).to_bytes(nbytes, "little")
         parent = none if parent is None else parent
         op = self.op_of_action.get(applied, -1)
         out = kernel(task, cost, bits, parent, op, ws, sizes)
         while out[0] == -2:                 # a workspace region was too small: double them
-            self._compile(2 * self._scale)
+            self._prepare(2 * self._scale)
             kernel, task, cost, mask, nbytes, none, ws, sizes = self._compiled
             out = kernel(task, cost, bits, parent, op, ws, sizes)
         return out
 
-    def _compile(self, scale: int) -> None:
+    def _prepare(self, scale: int) -> None:
         # numba (and numpy) load only here: start-up time of everything that does not run A*
         from tmpc.compiler.ground import lmcut_kernel
 
