@@ -20,6 +20,7 @@ from tmpc.compiler.ground.formula import geo_atoms as geo_atoms
 from tmpc.compiler.ground.formula import relaxed_holds as relaxed_holds
 from tmpc.compiler.ground.formula import small_dnf as small_dnf
 from tmpc.compiler.ground.lmcut import LMCut as LMCut
+from tmpc.compiler.ground.lmcut import load_kernel as load_kernel
 from tmpc.compiler.ground.problem import MAX_BINDINGS as MAX_BINDINGS
 from tmpc.compiler.ground.problem import GroundAction as GroundAction
 from tmpc.compiler.ground.problem import GroundingError as GroundingError

@@ -12,7 +12,8 @@ included (:class:`~tmpc.compiler.ground.GroundProblem`), geometric literals coun
   conditional effects, and every action of a domain with derived predicates, go through
   :meth:`GroundProblem.apply`.
 * **Heuristic**: LM-cut (:mod:`tmpc.compiler.ground.lmcut`), admissible, not consistent; its
-  value is cached per state.
+  value is cached per state. With integral costs it is the numba kernel
+  (:meth:`LMCut.packed`, the same values), and a state's landmarks are one int32 array.
 * **Search** as Fast Downward's ``astar(lmcut())``: the open list is ordered by ``f = g + h``,
   ties by lower ``h``, then first in, first out; the goal test is at expansion; a state reached
   again by a cheaper path is updated and, if it was already expanded, reopened (h is
@@ -25,7 +26,7 @@ import time
 from dataclasses import dataclass
 from heapq import heappop, heappush
 
-from tmpc.compiler.ground import GroundAction, GroundProblem, LMCut
+from tmpc.compiler.ground import GroundAction, GroundProblem, LMCut, load_kernel
 
 INF = float("inf")
 
@@ -117,6 +118,8 @@ class AStarPlanner:
         self.unit = (not problem.uses_costs) if unit is None else unit
         self.h = LMCut(problem, unit=self.unit)
         self.successors = Successors(problem, self.unit)
+        if self.h.compiled:                 # integral costs: numba's LM-cut, loaded before
+            load_kernel()                   # the search's clock starts
 
     def plan(self, time_limit: float = INF) -> SearchResult:
         """The search; one function on purpose: it is the hot loop, and locals are Python's
@@ -131,9 +134,15 @@ class AStarPlanner:
         index: dict[int, int] = {p.init: 0}
         states, g, hv, parent, via = [p.init], [0], [0.0], [-1], [None]
         closed_g: dict[int, float] = {}
+        compiled = self.h.compiled
+        packed = self.h.packed
         th = time.perf_counter()
-        lms[0] = []
-        hv[0] = st.h_init = cuts(p.init, lms[0])[0]
+        if compiled:
+            lms[0] = packed(p.init)
+            hv[0] = st.h_init = INF if lms[0][0] < 0 else int(lms[0][0])
+        else:
+            lms[0] = []
+            hv[0] = st.h_init = cuts(p.init, lms[0])[0]
         st.h_seconds += time.perf_counter() - th
         st.evaluated = 1
         heap = [] if hv[0] == INF else [(hv[0], hv[0], 0, 0, 0)]
@@ -162,7 +171,12 @@ class AStarPlanner:
                 tid = index.get(t)
                 if tid is None:
                     th = time.perf_counter()
-                    if incremental:
+                    if compiled:
+                        lt = packed(t, mine, a.id)
+                        ht = INF if lt[0] < 0 else int(lt[0])
+                        if incremental:
+                            lms[len(states)] = lt
+                    elif incremental:
                         lms[len(states)] = lt = []
                         ht = cuts(t, lt, None, mine, a.id)[0]
                     else:

@@ -174,7 +174,7 @@ def test_missing_file_and_usage_errors(tmp_path):
 
 def test_check_imports_nothing_heavy():
     code = ("import sys; from tmpc.runtime.cli.main import main; rc = main(['check', %r, %r]); "
-            "heavy = [m for m in ('jax', 'z3', 'ompl', 'lupa', 'numpy', 'fcl', 'trimesh') "
+            "heavy = [m for m in ('jax', 'z3', 'ompl', 'lupa', 'numpy', 'fcl', 'trimesh', 'numba') "
             "if m in sys.modules]; print(heavy); sys.exit(rc)") % tuple(CLUTTER)
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

@@ -222,3 +222,15 @@ def test_time_limit_of_every_engine(tmp_path, capsys):
         err = capsys.readouterr().err
         assert "error[E613]: time limit of 0.5 s reached: " in err and "A* expanded " in err
         assert "no plan costs less than " in err
+
+
+@pytest.mark.parametrize("args,loaded", [(["--help"], False), (["plan", *BLOCKS], False),
+                                         (["plan", *BLOCKS, "--engine", "astar"], True)],
+                         ids=["help", "sat", "astar"])
+def test_numba_loads_with_astar_only(args, loaded):
+    """The compiled LM-cut's numba (~0.6 s to load) is imported by A* alone."""
+    code = ("import sys\nfrom tmpc.runtime.cli.main import main\n"
+            f"try:\n    main({args!r})\nexcept SystemExit:\n    pass\n"
+            "print('numba' in sys.modules, file=sys.stderr)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.stderr.strip().splitlines()[-1] == str(loaded), r.stderr

@@ -1,6 +1,7 @@
 """A* with LM-cut against brute force: optimal costs equal to a Dijkstra over the whole state
 space, the same lengths as the SAT planner, LM-cut admissible (also from a parent's landmarks)
-on every fixture state, deterministic plans that replay."""
+on every fixture state, deterministic plans that replay; the compiled LM-cut (A*'s) equal to the
+Python definition (the SAT bound's) on sampled states."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import pytest
 from tests.bench.gen import GRIPPER_DOMAIN, gripper_problem
 from tests.support import EXAMPLES, FIXTURES
 from tmpc.compiler.ground import LMCut, ground
+from tmpc.compiler.ground.lmcut import unpack
 from tmpc.compiler.smt import lmcut
 from tmpc.lang.program import load_checked
 from tmpc.runtime.planners import AStarPlanner, TaskPlanner, simulate
@@ -105,6 +107,64 @@ def test_lmcut_is_admissible_on_every_state(task):
         for a, t, _ in edges[s]:                    # from the parent's landmarks
             ht = h.cuts(t, None, None, lms, a.id)[0]
             assert ht <= dist.get(t, INF)
+
+
+def _sampled_states(gp, task, rng, n=150):
+    """Up to ``n`` states with their successors: all reachable ones by brute force when small,
+    else random walks from the initial state."""
+    space = _space(*task)
+    if space is not None:
+        edges = space[0]
+        states = sorted(edges)
+        return [(s, edges[s]) for s in rng.sample(states, min(len(states), n))]
+    out, s = [], gp.init
+    while len(out) < n:
+        succ = [(a, t, 0) for a, t in gp.successors(s)]
+        out.append((s, succ))
+        s = rng.choice(succ)[1] if succ and rng.random() < 0.95 else gp.init
+    return out
+
+
+@pytest.mark.parametrize("unit", [None, True], ids=["costs", "unit"])
+@pytest.mark.parametrize("task", TASKS, ids=_id)
+def test_the_compiled_lmcut_equals_the_python_definition(task, unit):
+    """The numba kernel gives the same value and the same landmarks (costs and operator sets,
+    in the same order) as :meth:`LMCut.cuts`, plain and from each parent's landmarks."""
+    gp = _ground(*task)
+    h = LMCut(gp, unit=unit)
+    if not h.compiled:
+        pytest.skip("non-integral costs: the Python version only")
+    for s, succ in _sampled_states(gp, task, random.Random(1)):
+        lms: list = []
+        hs = h.cuts(s, lms)[0]
+        packed = h.packed(s)
+        assert unpack(packed) == _finite(hs, lms), gp.state_atoms(s)
+        for a, t, _ in succ[:4]:
+            child: list = []
+            ht = h.cuts(t, child, None, lms, a.id)[0]
+            assert unpack(h.packed(t, packed, a.id)) == _finite(ht, child), gp.state_atoms(t)
+
+
+def _finite(h, landmarks):
+    """A dead end's landmarks are none in the kernel's answer (the Python version keeps the
+    parent's it had reused; A* drops both)."""
+    return (h, landmarks if h < INF else [])
+
+
+def test_the_compiled_lmcut_grows_a_small_workspace(monkeypatch):
+    """A workspace too small for a state makes the kernel answer [-2]; the call retries with
+    one twice as large until it fits, and the answer is the same."""
+    from tmpc.compiler.ground import lmcut_kernel
+
+    task = (EXAMPLES / "blocksworld", "p01")
+    gp = _ground(*task)
+    reference = LMCut(gp)
+    monkeypatch.setattr(lmcut_kernel, "workspace_sizes",
+                        lambda t, n_ops, scale: lmcut_kernel.np.full(5, scale, "int64"))
+    h = LMCut(gp)
+    for s, _ in _sampled_states(gp, task, random.Random(2), 20):
+        assert unpack(h.packed(s)) == unpack(reference.packed(s))
+    assert h._scale > 4
 
 
 def test_incremental_and_plain_lmcut_find_the_same_costs():
