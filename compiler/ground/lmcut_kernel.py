@@ -223,14 +223,7 @@ def _explore(init, h, cost, supp, scost, unsat, sup_head, sup_tail, sup_op, sup_
     head[0], tail[0] = -1, -1
     for p in init:
         h[p] = 0
-        ent_fact[n_ent] = p
-        ent_next[n_ent] = -1
-        if tail[0] >= 0:
-            ent_next[tail[0]] = n_ent
-        else:
-            head[0] = n_ent
-        tail[0] = n_ent
-        n_ent += 1
+        n_ent = _list_append(0, p, head, tail, ent_fact, ent_next, n_ent)
     v = 0
     while v <= top:
         i = head[v]
@@ -245,7 +238,7 @@ def _explore(init, h, cost, supp, scost, unsat, sup_head, sup_tail, sup_op, sup_
                         scost[o] = v
                         if n_sup >= len(sup_op):
                             return -1
-                        n_sup = _sup_append(p, o, sup_head, sup_tail, sup_op, sup_next, n_sup)
+                        n_sup = _list_append(p, o, sup_head, sup_tail, sup_op, sup_next, n_sup)
                         w = v + cost[o]
                         for q in range(eff_o[o], eff_o[o + 1]):
                             e = eff_i[q]
@@ -256,30 +249,26 @@ def _explore(init, h, cost, supp, scost, unsat, sup_head, sup_tail, sup_op, sup_
                                 while top < w:
                                     top += 1
                                     head[top], tail[top] = -1, -1
-                                ent_fact[n_ent] = e
-                                ent_next[n_ent] = -1
-                                if tail[w] >= 0:
-                                    ent_next[tail[w]] = n_ent
-                                else:
-                                    head[w] = n_ent
-                                tail[w] = n_ent
-                                n_ent += 1
+                                n_ent = _list_append(w, e, head, tail, ent_fact, ent_next,
+                                                     n_ent)
             i = ent_next[i]
         v += 1
     return n_sup
 
 
 @numba.njit(cache=True, inline="always")
-def _sup_append(p, o, sup_head, sup_tail, sup_op, sup_next, n_sup):
-    """Append ``o`` to ``sup[p]`` (room is made by the caller)."""
-    sup_op[n_sup] = o
-    sup_next[n_sup] = -1
-    if sup_tail[p] >= 0:
-        sup_next[sup_tail[p]] = n_sup
+def _list_append(p, o, head, tail, item, nxt, n):
+    """Append ``o`` to the linked list ``p`` (``head``/``tail`` per list, entries ``item`` and
+    ``nxt``; ``n`` entries used, room made by the caller): ``sup[p]``, or a bucket of the
+    h_max queue. Returns the entries used."""
+    item[n] = o
+    nxt[n] = -1
+    if tail[p] >= 0:
+        nxt[tail[p]] = n
     else:
-        sup_head[p] = n_sup
-    sup_tail[p] = n_sup
-    return n_sup + 1
+        head[p] = n
+    tail[p] = n
+    return n + 1
 
 
 @numba.njit(cache=True, inline="always")
@@ -375,7 +364,7 @@ def _decrease(cut, h, cost, supp, scost, sup_head, sup_tail, sup_op, sup_next, n
                 supp[o] = bp
                 if n_sup >= len(sup_op):
                     return -1
-                n_sup = _sup_append(bp, o, sup_head, sup_tail, sup_op, sup_next, n_sup)
+                n_sup = _list_append(bp, o, sup_head, sup_tail, sup_op, sup_next, n_sup)
             if best != scost[o]:
                 scost[o] = best
                 w = best + cost[o]
