@@ -45,10 +45,11 @@ cost-over-time trace. ``first_solution`` stops at the first one (tmit-star witho
 Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
 declares ``blocked_steps`` and never reads it); each mode's entries are joined to its exits and
-half of its samples are drawn around them (``portals``, ``corridor``); edges are checked in
-batches, coarse first, a found path's at the full resolution (``coarse``); the search before a
-first solution is inflated (``inflation``) and a search gives up after ``search_budget`` edge
-checks until the next batch.
+half of its samples are drawn around them (``portals``, ``corridor``); every new portal vertex
+gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`); edges are
+checked in batches, coarse first, a found path's at the full resolution (``coarse``); the
+search before a first solution is inflated (``inflation``) and a search gives up after
+``search_budget`` edge checks until the next batch.
 """
 
 from __future__ import annotations
