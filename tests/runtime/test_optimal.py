@@ -131,9 +131,8 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
         qa, qb = planner.Q[a], planner.Q[b]
         assert np.abs(p.difference(qb, qa) / span).max() <= max(planner.opt.escape_steps) + 1e-9
         assert cost == pytest.approx(float(p.cost(qb, qa)))
-    mode = planner.modes
     for a, b, _ in planner.stubs[:60]:
-        m = mode[planner.node_mode[a]]
+        m = planner.modes[planner.node_mode[a]]
         assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
                                   poses=m.poses, attached=m.held, details=False).valid
 
