@@ -80,6 +80,7 @@ class OptimalOptions:
     resolution: float = 0.05           # motion-check resolution (the validator's default)
     coarse: float = 8.0                # the search checks edges at coarse x resolution first
     inflation: float = 2.0             # heuristic weight of the searches before a first solution
+    deflation: float = 0.5             # ... its excess over 1 shrinks by this per later search
     mode_caps: int = 0                 # > 0: caps per source mode, this many times the absolute
     portals: bool = True               # join each mode's entries to its exits (tmpc's addition)
     corridor: float = 0.5              # share of samples around entry-exit segments (tmpc's)
@@ -173,6 +174,7 @@ class OptimalPlanner:
         self.best_path: list[int] | None = None
         self.trace: list[tuple[float, float]] = []
         self._search_costs: list[float] = []
+        self._later = 0                  # searches since (and including) the first solution's
         self._graph_size = -1
         self._progress: list[int] = [0]
         self.on_solution = None          # callback(result) at every improved solution
@@ -616,6 +618,8 @@ class OptimalPlanner:
         g = self._graph()
         h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(self.goals), min_only=True)
         improved = self._forward(g, h)
+        if self.best_path is not None:
+            self._later += 1
         self._graph_size = len(self.node_mode)
         self.p.timers.search += time.perf_counter() - t
         return improved
@@ -628,9 +632,11 @@ class OptimalPlanner:
         self._checks_left = self.opt.search_budget or math.inf
         lists = adjacency(g, h)
         while True:
-            # until a first solution, weighted (ABIT*'s inflation): found with fewer edge
-            # checks; every later search is exact, so the anytime costs reach the optimum
-            weight = self.opt.inflation if self.best_path is None else 1.0
+            # weighted (ABIT*'s inflation): a path found with fewer edge checks, at most
+            # ``weight`` times the graph's cheapest; after the first solution the weight goes
+            # down to 1 (1 + (inflation - 1) deflation^k at the k-th later search), so the
+            # anytime costs reach the optimum while each search still ends within its budget
+            weight = 1.0 + (self.opt.inflation - 1.0) * self.opt.deflation ** self._later
             try:
                 cost, path, closed = lazy_astar(lists, h, 0, self.goals, self._valid,
                                                 self.best_cost, self._check, weight=weight)
