@@ -11,14 +11,13 @@ from __future__ import annotations
 
 from abc import abstractmethod
 from array import array
-from collections.abc import Sequence
 
 from tmpc.lang import ast as A
-from tmpc.lang.sexpr import OPEN, Packed
+from tmpc.lang.sexpr import OPEN, Packed, ValueSequence
 from tmpc.lang.source import Span
 
 
-class _Columns(Sequence):
+class _Columns(ValueSequence):
     """Entries that are a child of ``src`` (``ref[j] >= 0``) or an object (``others[j]``)."""
 
     __slots__ = ("src", "ref", "others")
@@ -64,23 +63,12 @@ class _Columns(Sequence):
         return self[j]
 
     def __eq__(self, other) -> bool:
-        if not isinstance(other, Sequence) or isinstance(other, str):
-            return NotImplemented
-        if len(self) != len(other):
-            return False
-        if type(other) is type(self):
-            return all(self.key(j) == other.key(j) for j in range(len(self)))
-        return all(a == b for a, b in zip(self, other))
+        if type(other) is type(self):          # the same columns: compare keys, build nothing
+            return len(self) == len(other) and \
+                all(self.key(j) == other.key(j) for j in range(len(self)))
+        return super().__eq__(other)
 
-    def __ne__(self, other) -> bool:
-        eq = self.__eq__(other)
-        return eq if eq is NotImplemented else not eq
-
-    def __hash__(self) -> int:
-        return hash(tuple(self))
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({len(self)} items)"
+    __hash__ = ValueSequence.__hash__          # (defining __eq__ would unset it)
 
 
 class InitFacts(_Columns):

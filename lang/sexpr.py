@@ -59,7 +59,28 @@ class SList:
 SExpr = SAtom | SList
 
 
-class Packed(Sequence):
+class ValueSequence(Sequence):
+    """A sequence that compares, hashes and prints as a value (as the tuple it stands for)."""
+
+    __slots__ = ()
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Sequence) or isinstance(other, str):
+            return NotImplemented
+        return len(self) == len(other) and all(a == b for a, b in zip(self, other))
+
+    def __ne__(self, other) -> bool:
+        eq = self.__eq__(other)
+        return eq if eq is NotImplemented else not eq
+
+    def __hash__(self) -> int:
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({len(self)} items)"
+
+
+class Packed(ValueSequence):
     """The children of a long list (a problem's `:init`, `:objects`, a large goal) as columns
     of tokens instead of objects: an SAtom with its span costs ~110 bytes and a fact ~500, 15x
     its text; here a token costs 12. Indexing builds the SAtom/SList on demand, equal to the one
@@ -199,21 +220,6 @@ class Packed(Sequence):
             return self.others[k].span.end
         s = self.sym[t]
         return self.pos[t] + (1 if s == CLOSE else len(self.names[s]))
-
-    def __eq__(self, other) -> bool:
-        if not isinstance(other, Sequence) or isinstance(other, str):
-            return NotImplemented
-        return len(self) == len(other) and all(a == b for a, b in zip(self, other))
-
-    def __ne__(self, other) -> bool:
-        eq = self.__eq__(other)
-        return eq if eq is NotImplemented else not eq
-
-    def __hash__(self) -> int:
-        return hash(tuple(self))
-
-    def __repr__(self) -> str:
-        return f"Packed({len(self)} items)"
 
 
 #: token ids of the brackets in :attr:`Packed.sym`
