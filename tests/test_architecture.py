@@ -31,7 +31,8 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
              "tmpc.runtime.editor.protocol",   # the worker answers `ping` before the compiler loads
-             "tmpc.compiler.ground.lmcut"}     # numba loads with A*'s compiled LM-cut only
+             "tmpc.compiler.ground.lmcut",     # numba loads with A*'s compiled LM-cut only
+             "tmpc.runtime.collision.spheres"}  # ... and with the first batched collision check
 #: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
 #: language server start without them
 HEAVY = {"jax", "jaxlib", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",

@@ -14,8 +14,9 @@ candidate pair is confirmed free by fcl: the pass never turns a colliding state 
 (radii carry a relative and absolute slack of 1e-9 against rounding). tests/runtime/test_collision.py
 checks this against exact fcl on thousands of random states.
 
-The pass runs in two stages: JAX computes forward kinematics and the bounding-ball tests of every
-pair for a whole batch (``coarse``); numpy tests the covers of the pairs that survive (``fine``).
+The pass runs in two steps: JAX computes the forward kinematics of a whole batch, then one
+compiled call (:mod:`~tmpc.runtime.collision.pass_kernel`, numba) runs the tests of every pair
+state by state: bounding balls and boxes (``coarse``), then the covers of the pairs that survive.
 """
 
 from __future__ import annotations
@@ -199,9 +200,10 @@ class Plan:
     """Index arrays of one batch call (object placements and held objects fixed).
 
     ``mv``: the moving geometries (global ids; robot links and held objects), hanging on frames
-    ``used[fpos]``; ``mm``: pairs of moving geometries (positions in ``mv``); ``bb_m``,
-    ``bb_w``: per (moving, obstacle box) pair, the moving position and the box; ``ff``: pairs
-    of geometries that do not move in the batch (global ids, checked once).
+    ``used[fpos]``; ``mm``: pairs of moving geometries (positions in ``mv``); ``bb_m``: per
+    (moving, obstacle box) pair, the moving position, grouped by box (``bb_start``); ``ff``:
+    pairs of geometries that do not move in the batch (global ids, checked once). The layout is
+    :func:`~tmpc.runtime.collision.pass_kernel.candidates`'s.
     """
 
     used: np.ndarray
@@ -213,16 +215,19 @@ class Plan:
     obb_c: np.ndarray            # (M, 3) box (the local AABB) center, frame coordinates
     obb_R: np.ndarray            # (M, 3, 3) box axes in frame coordinates
     obb_h: np.ndarray            # (M, 3) half-extents
-    cov_c: np.ndarray            # (3, M, K) in frame coordinates, component first
-    cov_r: np.ndarray            # (M, K), padding _NEVER
+    cov: np.ndarray              # (M, K, 3) cover centers in frame coordinates
+    cov_r: np.ndarray            # (M, K) their radii (the first ncov[m] of row m)
+    ncov: np.ndarray             # (M,) balls in each cover
     mm: np.ndarray               # (P, 2)
+    table_of: np.ndarray         # (P,) row of each mm pair in the tables' answers, or -1
     bb_m: np.ndarray             # (K,) moving position of each (moving, obstacle box) pair
-    bb_w: np.ndarray             # (K,) its obstacle box
+    bb_start: np.ndarray         # (W + 1,) the pairs of box w: bb_m[bb_start[w]:bb_start[w + 1]]
     box_geom: np.ndarray         # (W,) global id of each obstacle
     box_R: np.ndarray            # (W, 3, 3) world rotation
     box_t: np.ndarray            # (W, 3) world center
     box_h: np.ndarray            # (W, 3) half-extents
     box_r: np.ndarray            # (W,) rounding radius
+    box_half: np.ndarray         # (W, 3) half-extents of each obstacle's world AABB
     ff: np.ndarray               # (F, 2)
     tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
 
@@ -316,12 +321,26 @@ class FirstPass:
         gm = [w.geoms[g] for g in mv]
         obb_c = np.array([L[:3, :3] @ g.aabb_center + L[:3, 3] for L, g in zip(lm, gm)])
         obb_h = np.array([_inflate(g.aabb_half) for g in gm])
-        cov_c = np.ascontiguousarray(cov_c.transpose(2, 0, 1))
-        tables = [(k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm)]
-        return Plan(used, mv, np.searchsorted(used, gframe[moving]), lm, ball_c, ball_r,
-                    obb_c.reshape(-1, 3), lm[:, :3, :3], obb_h.reshape(-1, 3), cov_c,
-                    cov_r, mm, bb_m, bb_w, box_geom, *arr, pairs[~ma & ~mb],
-                    [(k, t) for k, t in tables if t is not None])
+        tables = [(k, t) for k, t in
+                  ((k, self._table(int(mv[a]), int(mv[b]))) for k, (a, b) in enumerate(mm))
+                  if t is not None]
+        table_of = np.full(len(mm), -1, np.int64)
+        table_of[[k for k, _ in tables]] = np.arange(len(tables))
+        order = np.argsort(bb_w, kind="stable")             # the pass visits pairs box by box
+        bb_m, bb_w = bb_m[order], bb_w[order]
+        bb_start = np.searchsorted(bb_w, np.arange(len(box_geom) + 1)).astype(np.int64)
+        box_R, box_t, box_h, box_r = arr
+        box_half = (np.abs(box_R) @ box_h[..., None])[..., 0] + box_r[:, None]
+        ncov = np.array([len(self.covers[g][1]) for g in mv], np.int64)
+        return Plan(used=used, mv=mv.astype(np.int64),
+                    fpos=np.searchsorted(used, gframe[moving]), local=lm, ball_c=ball_c,
+                    ball_r=ball_r, obb_c=obb_c.reshape(-1, 3),
+                    obb_R=np.ascontiguousarray(lm[:, :3, :3]), obb_h=obb_h.reshape(-1, 3),
+                    cov=cov_c, cov_r=cov_r, ncov=ncov, mm=mm.astype(np.int64),
+                    table_of=table_of, bb_m=bb_m, bb_start=bb_start,
+                    box_geom=box_geom.astype(np.int64), box_R=box_R, box_t=box_t, box_h=box_h,
+                    box_r=box_r, box_half=box_half.reshape(-1, 3), ff=pairs[~ma & ~mb],
+                    tables=tables)
 
     def _table(self, ga: int, gb: int) -> "PairTable | None":
         """The pair table of two robot link geometries (None for held objects, whose placement
@@ -352,131 +371,30 @@ class FirstPass:
 
     def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
         """The pass over states Q (B, n); ``frames``: their kinematics when known (batch-last,
-        :meth:`CollisionWorld.check_batches`), else computed here."""
+        :meth:`CollisionWorld.check_batches`), else computed here. One compiled call
+        (:func:`~tmpc.runtime.collision.pass_kernel.candidates`) after the pair tables."""
+        from tmpc.runtime.collision import pass_kernel
+
+        n = len(Q)
         R, p = self.world.fk_frames(pad_batch(Q)) if frames is None else frames
-        R, p = np.asarray(R)[plan.used][..., :len(Q)], np.asarray(p)[plan.used][..., :len(Q)]
-        Rg, pg = R[plan.fpos], p[plan.fpos]                             # (M, 3, 3, B), (M, 3, B)
-        bc = plan.ball_c[:, None, :, None]
-        c = Rg[:, :, 0] * bc[:, :, 0] + Rg[:, :, 1] * bc[:, :, 1] + Rg[:, :, 2] * bc[:, :, 2] + pg
-        r = plan.ball_r
-        a, b = plan.mm[:, 0], plan.mm[:, 1]
-        d = c[a] - c[b]                                                     # (P, 3, B)
-        d2 = d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2
-        hit = d2 <= ((r[a] + r[b]) ** 2)[:, None]
-        for k, table in plan.tables:
-            hit[k] &= ~table.free(Q)
-        k1, s1 = np.nonzero(hit)
-        near = self._box_meets_ball(Rg, pg, plan, a[k1], b[k1], c, s1) & \
-            self._box_meets_ball(Rg, pg, plan, b[k1], a[k1], c, s1)
-        k1, s1 = k1[near], s1[near]
-        m2, w2, s2 = self._coarse_boxes(c, plan)
-        coarse = len(s1) + len(s2)
-        ok1 = self._fine_pairs(Rg, pg, plan, s1, a[k1], b[k1], c)
-        ok2 = self._fine_boxes(Rg, pg, plan, s2, m2, w2)
-        states = np.concatenate([s1[ok1], s2[ok2]])
-        ga = plan.mv[np.concatenate([a[k1][ok1], m2[ok2]])]
-        gb = np.concatenate([plan.mv[b[k1][ok1]], plan.box_geom[w2[ok2]]])
-        order = np.argsort(states, kind="stable")
-        return Candidates(states[order], ga[order], gb[order], R, p, coarse)
-
-    @staticmethod
-    def _box_meets_ball(Rg, pg, plan: Plan, m, other, c, s) -> np.ndarray:
-        """Whether the box of geometry m meets the bounding ball of geometry ``other`` in states
-        s: (N,) bool."""
-        Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]                # (N, 3, 3), (N, 3)
-        y = [Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2] - plan.obb_c[m, i]
-             for i in range(3)]                                            # frame coordinates
-        O, h = plan.obb_R[m], plan.obb_h[m]
-        d2 = 0.0
-        for j in range(3):
-            loc = O[:, 0, j] * y[0] + O[:, 1, j] * y[1] + O[:, 2, j] * y[2]
-            d2 = d2 + np.maximum(np.abs(loc) - h[:, j], 0.0) ** 2
-        return d2 <= plan.ball_r[other] ** 2
-
-    @staticmethod
-    def _coarse_boxes(c, plan: Plan):
-        """Bounding balls vs obstacle boxes, for the states whose whole-robot box (of all balls)
-        meets the obstacle's world box: (moving positions, boxes, states), all pairs at once."""
-        if not len(plan.bb_m):
-            z = np.zeros(0, np.int64)
-            return z, z, z
-        r = plan.ball_r
-        lo, hi = (c - r[:, None, None]).min(0), (c + r[:, None, None]).max(0)   # (3, B)
-        half = (np.abs(plan.box_R) @ plan.box_h[..., None])[..., 0] + plan.box_r[:, None]
-        t = plan.box_t[:, :, None]
-        near = ((lo[None] <= t + half[:, :, None]) & (hi[None] >= t - half[:, :, None])).all(1)
-        k, s = np.nonzero(near[plan.bb_w])                                 # (W, B) -> pairs
-        m, w = plan.bb_m[k], plan.bb_w[k]
-        x = c[m, :, s] - plan.box_t[w]                                     # (N, 3)
-        loc = np.einsum("nji,nj->ni", plan.box_R[w], x)
-        e = np.maximum(np.abs(loc) - plan.box_h[w], 0.0)
-        ok = (e * e).sum(1) <= (r[m] + plan.box_r[w]) ** 2
-        return m[ok], w[ok], s[ok]
-
-    @staticmethod
-    def _world_cover(Rg, pg, plan: Plan, m, s, order=None) -> list[np.ndarray]:
-        """World centers [x, y, z] (N, K) of the covers of moving geometries m in states s (the
-        balls ``order`` (N, K') only, when given). Component-first: numpy reduces over a
-        trailing axis of 3 several times slower."""
-        Rm, pm = Rg[m, :, :, s], pg[m, :, s]                               # (N, 3, 3), (N, 3)
-        cov = [plan.cov_c[j][m] for j in range(3)]                         # (N, K) each
-        if order is not None:
-            cov = [np.take_along_axis(cj, order, 1) for cj in cov]
-        return [Rm[:, i, 0, None] * cov[0] + Rm[:, i, 1, None] * cov[1]
-                + Rm[:, i, 2, None] * cov[2] + pm[:, i, None] for i in range(3)]
-
-    def _fine_pairs(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
-        """Covers of pairs of moving geometries: the balls of a's cover that meet b's bounding
-        ball, against the balls of b's cover that meet a's bounding ball. (N,) bool: still a
-        candidate."""
-        keep = np.zeros(len(s), bool)
-        for lo in range(0, len(s), FINE_CHUNK):
-            sl = slice(lo, lo + FINE_CHUNK)
-            keep[sl] = self._fine_chunk(Rg, pg, plan, s[sl], a[sl], b[sl], c)
-        return keep
-
-    def _fine_chunk(self, Rg, pg, plan: Plan, s, a, b, c) -> np.ndarray:
-        if len(s) == 0:
-            return np.zeros(0, bool)
-        near = []
-        for m, other in ((a, b), (b, a)):
-            # the other's ball center in m's frame: no per-ball transform needed
-            Rm, x = Rg[m, :, :, s], c[other, :, s] - pg[m, :, s]
-            d2 = 0.0
-            for i in range(3):
-                o = Rm[:, 0, i] * x[:, 0] + Rm[:, 1, i] * x[:, 1] + Rm[:, 2, i] * x[:, 2]
-                d2 = d2 + (plan.cov_c[i][m] - o[:, None]) ** 2
-            rr = plan.cov_r[m] + plan.ball_r[other][:, None]
-            near.append((d2 <= rr * rr) & (rr > 0))
-        live = near[0].any(1) & near[1].any(1)
-        out = np.zeros(len(s), bool)
-        if not live.any():
-            return out
-        s, packed = s[live], []
-        for m, nr in zip((a[live], b[live]), (near[0][live], near[1][live])):
-            order = np.argsort(~nr, axis=1, kind="stable")[:, :nr.sum(1).max()]
-            C = self._world_cover(Rg, pg, plan, m, s, order)
-            rad = np.where(np.take_along_axis(nr, order, 1),
-                           np.take_along_axis(plan.cov_r[m], order, 1), _NEVER)
-            packed.append((C, rad))
-        (Ca, ra), (Cb, rb) = packed
-        d2 = sum((Ca[i][:, :, None] - Cb[i][:, None]) ** 2 for i in range(3))
-        rr = ra[:, :, None] + rb[:, None]
-        out[live] = ((d2 <= rr * np.abs(rr)) & (rr > 0)).any((1, 2))
-        return out
-
-    def _fine_boxes(self, Rg, pg, plan: Plan, s, m, w) -> np.ndarray:
-        if len(s) == 0:
-            return np.zeros(0, bool)
-        C = self._world_cover(Rg, pg, plan, m, s)                           # 3 x (N, K)
-        x = [C[i] - plan.box_t[w][:, i, None] for i in range(3)]
-        Rw, h = plan.box_R[w], plan.box_h[w]
-        d2 = 0.0
-        for j in range(3):      # the box axis j: loc_j = sum_i R_ij x_i
-            loc = Rw[:, 0, j, None] * x[0] + Rw[:, 1, j, None] * x[1] + Rw[:, 2, j, None] * x[2]
-            d2 = d2 + np.maximum(np.abs(loc) - h[:, j, None], 0.0) ** 2
-        rr = plan.cov_r[m] + plan.box_r[w][:, None]
-        return ((d2 <= rr * np.abs(rr)) & (rr > 0)).any(1)
+        R = np.ascontiguousarray(np.asarray(R)[plan.used][..., :n])
+        p = np.ascontiguousarray(np.asarray(p)[plan.used][..., :n])
+        free = np.zeros((len(plan.tables), n), bool)
+        for row, (_, table) in enumerate(plan.tables):
+            free[row] = table.free(Q)
+        cap = max(64, 4 * n)
+        while True:
+            out = [np.empty(cap, np.int64) for _ in range(3)]
+            got, coarse = pass_kernel.candidates(
+                R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R, plan.obb_h,
+                plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free, plan.bb_start,
+                plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r, plan.box_half,
+                plan.mv, plan.box_geom, *out)
+            if got >= 0:
+                break
+            cap *= 4
+        s, a, b = (o[:got] for o in out)
+        return Candidates(s, a, b, R, p, coarse)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -633,8 +551,6 @@ def _reach(geom, T: np.ndarray, o: np.ndarray) -> float:
     return float(np.linalg.norm(world_pts - o, axis=1).max())
 
 
-#: candidate pairs per step of the cover stage (bounds its memory)
-FINE_CHUNK = 4096
 #: batch plans kept (least recently used out)
 PLANS_KEPT = 256
 

@@ -1,0 +1,208 @@
+"""The first pass's candidate search compiled by numba: :meth:`FirstPass.candidates`'s stages
+(bounding balls, boxes against balls, covers) for every state in one call.
+
+The numpy version ran each stage over whole arrays of (pair, state) entries: ~60 numpy calls a
+batch, ~0.7 ms of fixed cost per call and mode against ~17 us per state (2026-12-03), and the
+optimal planner checks ~20 states per mode and call. Here one compiled loop visits each state
+and stops testing a pair at the first stage that rules it out, so there is no fixed cost to
+speak of and no intermediate array.
+
+The tests are the same ones, in the same order, on the same numbers (``spheres.py`` says why
+each is sound): a candidate pair survives (1) its two bounding balls meeting, or, for an
+obstacle, the robot's box of balls meeting the obstacle's world box and then the ball meeting
+the (rounded) obstacle box; (2) for two moving geometries, each one's oriented box meeting the
+other's ball; (3) a ball of one's cover meeting a ball of the other's cover (only the cover
+balls that meet the other's bounding ball take part), or a cover ball meeting the obstacle box.
+Pairs whose :class:`~tmpc.runtime.collision.spheres.PairTable` proves them free skip the
+stages (the tables are read in numpy before the call).
+
+numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default, as
+for :mod:`tmpc.compiler.ground.lmcut_kernel`): the first use on a machine compiles it (2.3 s,
+measured), later processes load it (~0.25 s after numba's import, ~0.2 s; a run's warm-up does
+it while XLA loads the projectors on another thread). numba is imported on the first batched
+check, so commands that check no batch (``tmpc check``, ``tmpc plan``) do not load it.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from tmpc.compiler.cache import cache_root
+
+os.environ.setdefault("NUMBA_CACHE_DIR", str(cache_root() / "numba"))
+
+import numba  # noqa: E402  (after NUMBA_CACHE_DIR: numba reads it at import)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _box_meets_ball(R, p, s, fm, obb_c, obb_R, obb_h, m, cx, cy, cz, r):
+    """Whether the oriented box of moving geometry m (frame fm) meets the ball (cx, cy, cz; r)."""
+    x0, x1, x2 = cx - p[fm, 0, s], cy - p[fm, 1, s], cz - p[fm, 2, s]
+    y0 = R[fm, 0, 0, s] * x0 + R[fm, 1, 0, s] * x1 + R[fm, 2, 0, s] * x2 - obb_c[m, 0]
+    y1 = R[fm, 0, 1, s] * x0 + R[fm, 1, 1, s] * x1 + R[fm, 2, 1, s] * x2 - obb_c[m, 1]
+    y2 = R[fm, 0, 2, s] * x0 + R[fm, 1, 2, s] * x1 + R[fm, 2, 2, s] * x2 - obb_c[m, 2]
+    d2 = 0.0
+    for j in range(3):
+        loc = obb_R[m, 0, j] * y0 + obb_R[m, 1, j] * y1 + obb_R[m, 2, j] * y2
+        e = abs(loc) - obb_h[m, j]
+        if e > 0.0:
+            d2 += e * e
+    return d2 <= r * r
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _near_cover(R, p, s, fm, cov, cov_r, ncov, m, cx, cy, cz, r, out):
+    """Indices (into ``out``; their count returned) of m's cover balls that meet the ball
+    (cx, cy, cz; r): the ball's center in m's frame, no per-ball transform."""
+    x0, x1, x2 = cx - p[fm, 0, s], cy - p[fm, 1, s], cz - p[fm, 2, s]
+    o0 = R[fm, 0, 0, s] * x0 + R[fm, 1, 0, s] * x1 + R[fm, 2, 0, s] * x2
+    o1 = R[fm, 0, 1, s] * x0 + R[fm, 1, 1, s] * x1 + R[fm, 2, 1, s] * x2
+    o2 = R[fm, 0, 2, s] * x0 + R[fm, 1, 2, s] * x1 + R[fm, 2, 2, s] * x2
+    n = 0
+    for i in range(ncov[m]):
+        d0, d1, d2 = cov[m, i, 0] - o0, cov[m, i, 1] - o1, cov[m, i, 2] - o2
+        rr = cov_r[m, i] + r
+        if d0 * d0 + d1 * d1 + d2 * d2 <= rr * rr:
+            out[n] = i
+            n += 1
+    return n
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _world_balls(R, p, s, fm, cov, m, idx, n, W):
+    """World centers (rows of W) of m's cover balls idx[:n]."""
+    for k in range(n):
+        i = idx[k]
+        for a in range(3):
+            W[k, a] = (R[fm, a, 0, s] * cov[m, i, 0] + R[fm, a, 1, s] * cov[m, i, 1]
+                       + R[fm, a, 2, s] * cov[m, i, 2] + p[fm, a, s])
+
+
+@numba.njit(cache=True, nogil=True)
+def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov,
+               mm, table_of, table_free, bb_start, bb_m, box_R, box_t, box_h, box_r, box_half,
+               mv, box_geom, out_s, out_a, out_b):
+    """The candidate pairs of states 0..B-1 (R (U, 3, 3, B), p (U, 3, B): kinematics of the
+    plan's frames, batch-last), written to out_s/out_a/out_b (global geometry ids) in state
+    order; returns (pairs written, pairs left after the coarse stages), or (-1, 0) when the
+    outputs are too short."""
+    B = R.shape[3]
+    M = len(fpos)
+    K = cov.shape[1]
+    c = np.empty((M, 3))
+    ia = np.empty(K, np.int64)
+    ib = np.empty(K, np.int64)
+    Wa = np.empty((K, 3))
+    Wb = np.empty((K, 3))
+    cap = len(out_s)
+    n_out = 0
+    coarse = 0
+    for s in range(B):
+        # bounding-ball centers in the world, and the box of them all
+        lo0 = lo1 = lo2 = np.inf
+        hi0 = hi1 = hi2 = -np.inf
+        for m in range(M):
+            f = fpos[m]
+            for a in range(3):
+                c[m, a] = (R[f, a, 0, s] * ball_c[m, 0] + R[f, a, 1, s] * ball_c[m, 1]
+                           + R[f, a, 2, s] * ball_c[m, 2] + p[f, a, s])
+            r = ball_r[m]
+            lo0, hi0 = min(lo0, c[m, 0] - r), max(hi0, c[m, 0] + r)
+            lo1, hi1 = min(lo1, c[m, 1] - r), max(hi1, c[m, 1] + r)
+            lo2, hi2 = min(lo2, c[m, 2] - r), max(hi2, c[m, 2] + r)
+        # pairs of moving geometries
+        for k in range(len(mm)):
+            a, b = mm[k, 0], mm[k, 1]
+            d0, d1, d2 = c[a, 0] - c[b, 0], c[a, 1] - c[b, 1], c[a, 2] - c[b, 2]
+            rab = ball_r[a] + ball_r[b]
+            if d0 * d0 + d1 * d1 + d2 * d2 > rab * rab:
+                continue
+            t = table_of[k]
+            if t >= 0 and table_free[t, s]:
+                continue
+            fa, fb = fpos[a], fpos[b]
+            if not _box_meets_ball(R, p, s, fa, obb_c, obb_R, obb_h, a,
+                                   c[b, 0], c[b, 1], c[b, 2], ball_r[b]):
+                continue
+            if not _box_meets_ball(R, p, s, fb, obb_c, obb_R, obb_h, b,
+                                   c[a, 0], c[a, 1], c[a, 2], ball_r[a]):
+                continue
+            coarse += 1
+            na = _near_cover(R, p, s, fa, cov, cov_r, ncov, a, c[b, 0], c[b, 1], c[b, 2],
+                             ball_r[b], ia)
+            if na == 0:
+                continue
+            nb = _near_cover(R, p, s, fb, cov, cov_r, ncov, b, c[a, 0], c[a, 1], c[a, 2],
+                             ball_r[a], ib)
+            if nb == 0:
+                continue
+            _world_balls(R, p, s, fa, cov, a, ia, na, Wa)
+            _world_balls(R, p, s, fb, cov, b, ib, nb, Wb)
+            hit = False
+            for i in range(na):
+                ra = cov_r[a, ia[i]]
+                for j in range(nb):
+                    e0, e1, e2 = Wa[i, 0] - Wb[j, 0], Wa[i, 1] - Wb[j, 1], Wa[i, 2] - Wb[j, 2]
+                    rr = ra + cov_r[b, ib[j]]
+                    if e0 * e0 + e1 * e1 + e2 * e2 <= rr * rr:
+                        hit = True
+                        break
+                if hit:
+                    break
+            if hit:
+                if n_out == cap:
+                    return -1, 0
+                out_s[n_out], out_a[n_out], out_b[n_out] = s, mv[a], mv[b]
+                n_out += 1
+        # moving geometries against obstacle boxes, grouped by box
+        for w in range(len(box_t)):
+            h0, h1, h2 = box_half[w, 0], box_half[w, 1], box_half[w, 2]
+            t0, t1, t2 = box_t[w, 0], box_t[w, 1], box_t[w, 2]
+            if lo0 > t0 + h0 or hi0 < t0 - h0 or lo1 > t1 + h1 or hi1 < t1 - h1 \
+                    or lo2 > t2 + h2 or hi2 < t2 - h2:
+                continue
+            for k in range(bb_start[w], bb_start[w + 1]):
+                m = bb_m[k]
+                x0, x1, x2 = c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2
+                d2 = 0.0
+                for j in range(3):
+                    loc = box_R[w, 0, j] * x0 + box_R[w, 1, j] * x1 + box_R[w, 2, j] * x2
+                    e = abs(loc) - box_h[w, j]
+                    if e > 0.0:
+                        d2 += e * e
+                rr = ball_r[m] + box_r[w]
+                if d2 > rr * rr:
+                    continue
+                coarse += 1
+                f = fpos[m]
+                hit = False
+                for i in range(ncov[m]):
+                    y0 = y1 = y2 = 0.0
+                    for a in range(3):
+                        wc = (R[f, a, 0, s] * cov[m, i, 0] + R[f, a, 1, s] * cov[m, i, 1]
+                              + R[f, a, 2, s] * cov[m, i, 2] + p[f, a, s])
+                        if a == 0:
+                            y0 = wc - t0
+                        elif a == 1:
+                            y1 = wc - t1
+                        else:
+                            y2 = wc - t2
+                    d2 = 0.0
+                    for j in range(3):
+                        loc = box_R[w, 0, j] * y0 + box_R[w, 1, j] * y1 + box_R[w, 2, j] * y2
+                        e = abs(loc) - box_h[w, j]
+                        if e > 0.0:
+                            d2 += e * e
+                    rr = cov_r[m, i] + box_r[w]
+                    if d2 <= rr * rr:
+                        hit = True
+                        break
+                if hit:
+                    if n_out == cap:
+                        return -1, 0
+                    out_s[n_out], out_a[n_out], out_b[n_out] = s, mv[m], box_geom[w]
+                    n_out += 1
+    return n_out, coarse
+
