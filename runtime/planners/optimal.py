@@ -40,7 +40,10 @@ with it the reverse branch through it. Costs are tmit-star's composite path leng
 solution is reported (``on_solution``: the CLI writes it atomically) and recorded in the
 cost-over-time trace. ``first_solution`` stops at the first one (tmit-star without ``-o``);
 ``until_converged`` stops once the last ``converged_solutions`` searches' best costs lie within
-``converged_ratio`` of each other. Ctrl-C keeps the best plan.
+``converged_ratio`` of each other. Ctrl-C keeps the best plan. Each improved solution is then
+shortcut inside its modes (:meth:`OptimalPlanner._shortcut`), and an anytime run starts from the
+unified planner's plan when it has the fewest actions (:meth:`OptimalPlanner._seed`); both
+become graph edges, so every reported plan is a path of the graph.
 
 Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
@@ -49,7 +52,8 @@ half of its samples are drawn around them (``portals``, ``corridor``); every new
 gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`); edges are
 checked in batches, coarse first, a found path's at the full resolution (``coarse``); the
 search before a first solution is inflated (``inflation``) and a search gives up after
-``search_budget`` edge checks until the next batch.
+``search_budget`` edge checks until the next batch; anytime runs shortcut their
+solutions and start from the unified planner's plan (``shortcut_*``, ``seed_unified``).
 """
 
 from __future__ import annotations
@@ -66,6 +70,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
+from tmpc.runtime.planners.unified import UnifiedPlanner
 from tmpc.runtime.problem import Mode, PlanningProblem
 
 #: cost of a transition edge (same configuration): positive so sparse graphs keep it
@@ -91,6 +96,11 @@ class OptimalOptions:
     escape_keep: int = 2               # free ends kept per vertex and round
     #: their lengths: the largest coordinate step, as fractions of each coordinate's range
     escape_steps: tuple = (0.005, 0.02, 0.06)
+    #: anytime runs start from the unified planner's plan (tmpc's; not with first_solution)
+    seed_unified: bool = True
+    shortcut_tries: int = 32           # shortcuts tried per mode segment of a new solution (tmpc's)
+    shortcut_points: int = 16          # ... between points cutting its edges into this many pieces
+    shortcut_rounds: int = 3           # ... and again on the shortened segment
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
@@ -131,6 +141,7 @@ class OptimalPlanner:
         self.p = problem
         self.opt = options
         self.rng = np.random.default_rng(seed)
+        self.seed = seed
         self.tp: TaskPlanner | None = None
         self.dim = len(problem.lower)
         span = np.where(problem.wraps, 2 * np.pi, problem.upper - problem.lower)
@@ -144,6 +155,7 @@ class OptimalPlanner:
         self.mode_vertices: dict[int, list[int]] = {}
         self.bridge: dict[int, tuple[int, object]] = {}     # transition vertex -> (bridge, action)
         self.stubs: list[tuple[int, int, float]] = []       # escape edges (valid) and costs
+        self.shortcuts: list[tuple[int, int, float]] = []   # shortcut edges (valid) and costs
         self._stub_count: dict[int, int] = {}               # stub vertices per mode
         self._to_escape: list[int] = []                     # portals made since the last escape
         self.goals: set[int] = set()
@@ -181,7 +193,7 @@ class OptimalPlanner:
         self.counts = {"batches": 0, "task_plans": 0, "samples": 0, "projections": 0,
                        "transitions": 0, "transition_failures": 0, "edges_checked": 0,
                        "edges_confirmed": 0, "edges_invalid": 0, "searches": 0,
-                       "searches_cut": 0, "evidence": 0, "escapes": 0}
+                       "searches_cut": 0, "evidence": 0, "escapes": 0, "shortcuts": 0}
         self._t0 = time.perf_counter()
 
     @classmethod
@@ -534,8 +546,8 @@ class OptimalPlanner:
             rows.append(src)
             cols.append(np.array([self.bridge[v][0] for v in src], np.int64))
             vals.append(np.zeros(len(src)))
-        if self.stubs:
-            a, b, w = (np.array(x) for x in zip(*self.stubs))
+        if self.stubs or self.shortcuts:
+            a, b, w = (np.array(x) for x in zip(*self.stubs, *self.shortcuts))
             rows += [a.astype(np.int64), b.astype(np.int64)]
             cols += [b.astype(np.int64), a.astype(np.int64)]
             vals += [w, w]
@@ -715,6 +727,205 @@ class OptimalPlanner:
         if spent:
             raise _OutOfChecks
 
+    def _seed(self, deadline: float) -> bool:
+        """Start from the unified planner's plan (tmpc's addition, anytime runs only): run it
+        (same seed) and make its path a path of the graph: its states become vertices of the
+        modes this planner derives for them (its actions' transitions, with their bridges, and
+        its last state a goal vertex), its motions edges, checked here at the full resolution,
+        ends included. The graph then grows and searches as without it, bounded by this cost
+        from the start: a search only returns a cheaper plan. The plan is taken only when it
+        has as many actions as the first task plan (the task optimum: SAT's shortest), so an
+        optimal run's plan keeps the fewest actions (clutter-14 with 14 red sticks: unified's
+        plans have 32-34 actions, the optimum is 28). True if the plan was taken."""
+        if not self.opt.seed_unified or self.opt.first_solution or self.plan is None:
+            return False
+        p = self.p
+        unified = UnifiedPlanner(p, seed=self.seed)
+        # a third of the time left at most: a problem unified is slow on keeps the rest
+        res = unified.solve(max(0.0, deadline - time.perf_counter()) / 3)
+        self.counts["seed"] = res.status
+        if res.status == "interrupted":
+            raise KeyboardInterrupt
+        if res.status != "solved" or np.abs(p.difference(res.path[0][0], p.q0)).max() > 1e-9:
+            return False
+        actions = sum(a is not None for _, _, a in res.path)
+        if actions != len(self.plan):
+            self.counts["seed"] = f"{actions} actions, the task optimum is {len(self.plan)}"
+            return False
+        mode, ids, edges = self.modes[0], [0], {}
+        for (q, _, action), (q2, _, _) in zip(res.path, res.path[1:]):
+            u = ids[-1]
+            if action is None:
+                ids.append(self._add_vertex(q2, mode))
+                edges.setdefault(mode.id, []).append((u, ids[-1]))
+                continue
+            if np.abs(p.difference(q2, q)).max() > 1e-9:
+                return False                 # an action that moves: not a transition vertex
+            new = p.successor_mode(mode, action, q, len(self.modes))
+            succ, _ = self._mode(new.sym, new.poses, new.held, mode, action)
+            tr = self._transition(mode.sym, action, succ.sym)
+            tr.successes += 1
+            tr.by_mode[mode.id] = tr.by_mode.get(mode.id, 0) + 1
+            ids.append(self._add_vertex(q, succ))
+            self.bridge[u] = (ids[-1], action)
+            mode = succ
+        last = ids[-1]
+        if not self._goal_mode(mode) or (p.goal_formula() is not None
+                                         and not p.holds(mode, None, self.Q[last])):
+            return False
+        groups = list(edges.items())
+        oks = p.motions_valid_many([(self.modes[mid], self.Q[[u for u, _ in e]],
+                                     self.Q[[v for _, v in e]]) for mid, e in groups],
+                                   self.opt.resolution, ends=True)
+        if not all(ok.all() for ok in oks):
+            self.counts["seed"] = "rejected at the resolution"
+            return False
+        for _, e in groups:
+            for u, v in e:
+                self.shortcuts.append((u, v, float(p.cost(self.Q[v], self.Q[u]))))
+                self.edge_ok[_key(u, v)] = self._fine[_key(u, v)] = True
+        self.goals.add(last)
+        self.best_cost, self.best_path = self._path_cost(ids), ids
+        self.trace.append((round(time.perf_counter() - self._t0, 4), round(self.best_cost, 6)))
+        return True
+
+    def _shortcut(self, deadline: float) -> bool:
+        """Shortcuts of the best path (tmpc's addition: the unified planner's smoothing, done
+        as graph edges). Per mode segment (the vertices between two transitions), its edges
+        are cut into ``shortcut_points`` pieces in all (new vertices, outside the nearest-
+        neighbour lists), and straight motions between ``shortcut_tries`` pairs of those
+        points at least two apart (longer jumps likelier) are checked at the full resolution,
+        ends included, every segment's in one batched call. Each segment is then replaced by
+        its cheapest route over the free shortcuts and the pieces; the pieces that route uses
+        are checked the same way (a piece of a valid edge is not valid by itself at the
+        validator's resolution: its states are other states), and a failed one is removed and
+        the route found again. ``shortcut_rounds`` rounds, until ``deadline``. The free
+        motions become graph edges known valid, so later searches start from the new cost
+        (their bound) and can reuse them. True if the cost went down."""
+        opt = self.opt
+        if opt.shortcut_tries <= 0 or self.best_path is None:
+            return False
+        path = list(self.best_path)
+        for _ in range(opt.shortcut_rounds):
+            if time.perf_counter() >= deadline:
+                break
+            segs, cut = [], 0
+            for k in range(len(path) - 1):
+                if self.node_mode[path[k]] != self.node_mode[path[k + 1]] \
+                        or self.bridge.get(path[k], (None,))[0] == path[k + 1]:
+                    segs.append(path[cut:k + 1])
+                    cut = k + 1
+            segs.append(path[cut:])
+            dense = [self._dense(seg) for seg in segs]
+            tries = []
+            for seg, _ in dense:
+                far = [(i, j) for i in range(len(seg)) for j in range(i + 2, len(seg))
+                       if _key(seg[i], seg[j]) not in self._fine]
+                if len(far) > opt.shortcut_tries:
+                    gap = np.array([j - i for i, j in far], float)
+                    pick = self.rng.choice(len(far), opt.shortcut_tries, replace=False,
+                                           p=gap / gap.sum())
+                    far = [far[k] for k in sorted(pick)]
+                tries.append(far)
+            self._check_fine([seg for seg, _ in dense], tries)
+            costs = [self.p.cost(self.Q[seg][None], self.Q[seg][:, None]).tolist()
+                     for seg, _ in dense]
+            routes = [None] * len(dense)
+            while True:               # route over the pieces, check the pieces used, again
+                pieces = []
+                for k, (seg, _) in enumerate(dense):
+                    routes[k] = self._route(seg, costs[k])
+                    r = routes[k] or []
+                    pieces.append([(i, j) for i, j in zip(r, r[1:])
+                                   if _key(seg[i], seg[j]) not in self._fine])
+                if not any(pieces):
+                    break
+                self._check_fine([seg for seg, _ in dense], pieces)
+            out = []
+            for (seg, points), r in zip(dense, routes):
+                out += [seg[i] for i in r] if r is not None else \
+                    [v for v in seg if v not in points]
+            if out == path:
+                break
+            path = out
+        cost = self._path_cost(path)
+        if cost >= self.best_cost - 1e-6:
+            return False
+        self.best_cost, self.best_path = cost, path
+        self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
+        return True
+
+    def _check_fine(self, segs: list[list[int]], pairs: list[list[tuple[int, int]]]) -> None:
+        """Check the motions seg[i] -> seg[j] of each segment's pairs at the full resolution,
+        ends included, in one batched call; the free ones become edges known valid."""
+        p = self.p
+        items = [(self.modes[self.node_mode[seg[0]]], self.Q[[seg[i] for i, _ in prs]],
+                  self.Q[[seg[j] for _, j in prs]]) for seg, prs in zip(segs, pairs) if prs]
+        if not items:
+            return
+        oks = iter(p.motions_valid_many(items, self.opt.resolution, ends=True))
+        for seg, prs in zip(segs, pairs):
+            if not prs:
+                continue
+            for (i, j), good in zip(prs, next(oks).tolist()):
+                key = _key(seg[i], seg[j])
+                self.edge_ok[key] = self._fine[key] = good
+                if good:
+                    self.shortcuts.append((seg[i], seg[j], float(
+                        p.cost(self.Q[seg[j]], self.Q[seg[i]]))))
+                    self.counts["shortcuts"] += int(j > i + 1)
+                else:
+                    self._invalid.add(key)
+
+    def _dense(self, seg: list[int]) -> tuple[list[int], set[int]]:
+        """The segment with its edges cut into about ``shortcut_points`` pieces in all, and
+        the new points (vertices of the segment's mode, not in its nearest-neighbour lists)."""
+        if len(seg) < 2:
+            return seg, set()
+        p = self.p
+        Q = self.Q[seg]
+        step = p.cost(Q[1:], Q[:-1])
+        piece = max(float(step.sum()) / self.opt.shortcut_points, 1e-9)
+        mode = self.modes[self.node_mode[seg[0]]]
+        out, points = [seg[0]], set()
+        for k, (u, v) in enumerate(zip(seg, seg[1:])):
+            n = int(min(math.ceil(step[k] / piece), 64))
+            d = p.difference(self.Q[v], self.Q[u])
+            for t in range(1, n):
+                w = self._add_vertex(p.wrap(self.Q[u] + d * (t / n)), mode, listed=False)
+                points.add(w)
+                out.append(w)
+            out.append(v)
+        return out, points
+
+    def _route(self, seg: list[int], C: list) -> list[int] | None:
+        """Positions of the cheapest route from seg[0] to seg[-1] (a DAG: i -> j for i < j)
+        over the pieces (i -> i + 1) not known invalid and the motions known valid (costs
+        C[i, j]), or None if there is none."""
+        best, back = [0.0], [-1]
+        for j in range(1, len(seg)):
+            b, arg = math.inf, -1
+            for i in range(j):
+                ok = self._fine.get(_key(seg[i], seg[j]))
+                if ok or (ok is None and i == j - 1):
+                    c = best[i] + C[i][j]
+                    if c < b:
+                        b, arg = c, i
+            best.append(b)
+            back.append(arg)
+        if not math.isfinite(best[-1]):
+            return None
+        out, j = [], len(seg) - 1
+        while j >= 0:
+            out.append(j)
+            j = back[j]
+        return out[::-1]
+
+    def _path_cost(self, path: list[int]) -> float:
+        """Composite length of a path of vertices (transition edges cost nothing)."""
+        return float(sum(0.0 if self.bridge.get(u, (None,))[0] == v
+                         else self.p.cost(self.Q[v], self.Q[u]) for u, v in zip(path, path[1:])))
+
     # ---- the loop ----------------------------------------------------------------------------
     def solve(self, time_limit: float, progress=None) -> OptimalResult:
         p = self.p
@@ -731,6 +942,10 @@ class OptimalPlanner:
                 self.trace.append((0.0, 0.0))
             else:
                 self._new_task_plan(deadline)
+                if self._seed(deadline):
+                    self._report()
+                    if self._shortcut(deadline):
+                        self._report()
                 self._new_batch()
             while self.best_path != [root] and time.perf_counter() < deadline:
                 done = self._sample_modes(deadline)
@@ -738,6 +953,8 @@ class OptimalPlanner:
                     self._report()
                     if self.opt.first_solution:
                         break
+                    if self._shortcut(deadline):
+                        self._report()
                 if self.best_path is not None:
                     self._search_costs.append(self.best_cost)
                     if self._converged():

@@ -162,8 +162,9 @@ def _yaw(q) -> float:
 
 
 def test_anytime_cost_never_increases_and_the_last_plan_is_valid(clutter_problem_1, tmp_path):
+    """The planner's own anytime searches and shortcuts (no unified seed)."""
     seen = []
-    planner = OptimalPlanner(clutter_problem_1, 3, OptimalOptions())
+    planner = OptimalPlanner(clutter_problem_1, 3, OptimalOptions(seed_unified=False))
     planner.on_solution = lambda r: seen.append((r.cost, len(r.path)))
     result = planner.solve(4.0)
     assert result.status == "solved"
@@ -176,6 +177,63 @@ def test_anytime_cost_never_increases_and_the_last_plan_is_valid(clutter_problem
     assert result.cost == pytest.approx(costs[-1])
     _, report = _validate(clutter_problem_1, result, tmp_path, 3)
     assert report.valid, report
+
+
+def test_shortcuts_are_graph_edges_checked_at_the_resolution(clutter_problem_1, tmp_path):
+    """Shortcutting a first solution lowers its cost; the new path is a path of the graph
+    (its edges are the searches' too), every shortcut is free under exact fcl at the
+    resolution, and the plan validates. Trusting every try unchecked fails this."""
+    from tmpc.runtime.collision import CollisionWorld
+
+    p = clutter_problem_1
+    planner, result = _solve(p, 1, first_solution=True)
+    first = planner.best_cost
+    assert planner._shortcut(math.inf) and planner.best_cost < first
+    assert planner.trace[-1][1] == pytest.approx(planner.best_cost)
+    g = planner._graph()
+    path = planner.best_path
+    assert all(g[u, v] > 0 for u, v in zip(path, path[1:]))
+    assert planner._path_cost(path) == pytest.approx(planner.best_cost)
+    exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
+                           tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
+                           first_pass=False)
+    assert planner.counts["shortcuts"] > 0
+    for a, b, cost in planner.shortcuts[:40]:
+        m = planner.modes[planner.node_mode[a]]
+        assert planner.node_mode[b] == m.id and cost == pytest.approx(float(p.cost(planner.Q[b],
+                                                                               planner.Q[a])))
+        assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
+                                  poses=m.poses, attached=m.held, details=False).valid
+    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, 1)
+    assert report.valid, report
+
+
+def test_anytime_runs_start_from_the_unified_plan_with_the_fewest_actions(clutter_problem_1,
+                                                                          tmp_path):
+    """Without --first-solution the first solution is unified's plan (same seed), taken as a
+    graph path of this planner (same states, same cost); later ones only improve on it. A plan
+    with more actions than the task optimum is not taken."""
+    from tmpc.runtime.planners.unified import UnifiedPlanner
+
+    p = clutter_problem_1
+    unified = UnifiedPlanner(p, seed=2).solve(60.0)
+    planner, result = _solve(p, 2, time_limit=3.0)
+    assert planner.counts["seed"] == "solved"
+    first = result.stats["cost_trace"][0][1]
+    want = float(sum(p.cost(b[0], a[0]) for a, b in zip(unified.path, unified.path[1:])))
+    assert first == pytest.approx(want, rel=1e-6)
+    assert result.cost <= first + 1e-6      # the trace rounds to 6 decimals
+    _, report = _validate(p, result, tmp_path, 2)
+    assert report.valid, report
+    # a longer plan is refused: pretend the task optimum has one action more
+    planner = OptimalPlanner(p, 2, OptimalOptions())
+    planner._new_task_plan(math.inf)
+    planner.plan.append(planner.plan[-1])
+    planner.modes, planner.depth = [], {}
+    planner._add_mode(p.initial, 0)
+    planner._add_vertex(p.q0, p.initial)
+    assert not planner._seed(math.inf) and planner.best_path is None
+    assert planner.counts["seed"] == "2 actions, the task optimum is 3"
 
 
 def test_blockers_change_which_task_plans_come_next(clutter_problem_1):
