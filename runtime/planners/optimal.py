@@ -402,22 +402,30 @@ class OptimalPlanner:
                         break
                     reached |= self._succeed(tr, mode, ids[i], Q[i])
                 continue
-            for lo in range(0, len(near), 16):
+            reached |= self._project(tr, mode, Q[near])
+        return reached
+
+    def _project(self, tr: Transition, mode: Mode, starts: np.ndarray) -> bool:
+        """Project ``starts`` onto ``tr``'s precondition (16 a call) while it has budget; a
+        collision-free result succeeds. True if a goal was reached."""
+        p = self.p
+        reached = False
+        for lo in range(0, len(starts), 16):
+            if not self._budget(tr, mode):
+                break
+            part = starts[lo:lo + 16]
+            self.counts["projections"] += len(part)
+            Qp, holds, dist_p = p.project_raw(mode, tr.action, part)
+            ok = holds.copy()
+            if ok.any():
+                ok[ok] = p.valid_batch(mode, Qp[ok])
+            for q, h, good, d in zip(Qp, holds, ok, dist_p):
                 if not self._budget(tr, mode):
                     break
-                starts = Q[near[lo:lo + 16]]
-                self.counts["projections"] += len(starts)
-                Qp, holds, dist_p = p.project_raw(mode, tr.action, starts)
-                ok = holds.copy()
-                if ok.any():
-                    ok[ok] = p.valid_batch(mode, Qp[ok])
-                for q, h, good, d in zip(Qp, holds, ok, dist_p):
-                    if not self._budget(tr, mode):
-                        break
-                    if good:
-                        reached |= self._succeed(tr, mode, None, p.wrap(q))
-                    else:
-                        self._fail(tr, mode, q, bool(h), float(d))
+                if good:
+                    reached |= self._succeed(tr, mode, None, p.wrap(q))
+                else:
+                    self._fail(tr, mode, q, bool(h), float(d))
         return reached
 
     def _budget(self, tr: Transition, mode: Mode | None = None) -> bool:
