@@ -182,6 +182,7 @@ class OptimalPlanner:
         self._nn: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._fine: dict[tuple[int, int], bool] = {}        # edges checked at the resolution
         self._checks_left = math.inf
+        self._deadline = math.inf          # the run's: a search stops checking edges after it
         self.best_cost = math.inf
         self.best_path: list[int] | None = None
         self.trace: list[tuple[float, float]] = []
@@ -718,9 +719,9 @@ class OptimalPlanner:
         for u, v in pairs:
             if self._valid(u, v) is None:
                 todo.setdefault(self.node_mode[u], {})[_key(u, v)] = None
-        groups, spent = [], False
+        groups, spent = [], time.perf_counter() >= self._deadline     # the run's time is up
         for mid, keys in todo.items():
-            if self._checks_left <= 0:
+            if spent or self._checks_left <= 0:
                 spent = True               # the modes before this one are still checked
                 break
             self._checks_left -= len(keys)
@@ -938,7 +939,7 @@ class OptimalPlanner:
     def solve(self, time_limit: float, progress=None) -> OptimalResult:
         p = self.p
         self._t0 = start = time.perf_counter()
-        deadline = start + time_limit
+        deadline = self._deadline = start + time_limit
         self._add_mode(p.initial, 0)
         root = self._add_vertex(p.q0, p.initial)
         status = "partial"
