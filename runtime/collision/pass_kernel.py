@@ -37,19 +37,25 @@ import numba  # noqa: E402  (after NUMBA_CACHE_DIR: numba reads it at import)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _box_d2(Rb, hb, k, x0, x1, x2):
+    """Squared distance from box k (axes the columns of Rb[k], half-extents hb[k]) of the
+    point at (x0, x1, x2) from its center, in the axes Rb[k] is expressed in."""
+    d2 = 0.0
+    for j in range(3):
+        e = abs(Rb[k, 0, j] * x0 + Rb[k, 1, j] * x1 + Rb[k, 2, j] * x2) - hb[k, j]
+        if e > 0.0:
+            d2 += e * e
+    return d2
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _box_meets_ball(R, p, s, fm, obb_c, obb_R, obb_h, m, cx, cy, cz, r):
     """Whether the oriented box of moving geometry m (frame fm) meets the ball (cx, cy, cz; r)."""
     x0, x1, x2 = cx - p[fm, 0, s], cy - p[fm, 1, s], cz - p[fm, 2, s]
     y0 = R[fm, 0, 0, s] * x0 + R[fm, 1, 0, s] * x1 + R[fm, 2, 0, s] * x2 - obb_c[m, 0]
     y1 = R[fm, 0, 1, s] * x0 + R[fm, 1, 1, s] * x1 + R[fm, 2, 1, s] * x2 - obb_c[m, 1]
     y2 = R[fm, 0, 2, s] * x0 + R[fm, 1, 2, s] * x1 + R[fm, 2, 2, s] * x2 - obb_c[m, 2]
-    d2 = 0.0
-    for j in range(3):
-        loc = obb_R[m, 0, j] * y0 + obb_R[m, 1, j] * y1 + obb_R[m, 2, j] * y2
-        e = abs(loc) - obb_h[m, j]
-        if e > 0.0:
-            d2 += e * e
-    return d2 <= r * r
+    return _box_d2(obb_R, obb_h, m, y0, y1, y2) <= r * r
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -165,38 +171,22 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                 continue
             for k in range(bb_start[w], bb_start[w + 1]):
                 m = bb_m[k]
-                x0, x1, x2 = c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2
-                d2 = 0.0
-                for j in range(3):
-                    loc = box_R[w, 0, j] * x0 + box_R[w, 1, j] * x1 + box_R[w, 2, j] * x2
-                    e = abs(loc) - box_h[w, j]
-                    if e > 0.0:
-                        d2 += e * e
                 rr = ball_r[m] + box_r[w]
-                if d2 > rr * rr:
+                if _box_d2(box_R, box_h, w, c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2) > rr * rr:
                     continue
                 coarse += 1
                 f = fpos[m]
                 hit = False
                 for i in range(ncov[m]):
-                    y0 = y1 = y2 = 0.0
-                    for a in range(3):
-                        wc = (R[f, a, 0, s] * cov[m, i, 0] + R[f, a, 1, s] * cov[m, i, 1]
-                              + R[f, a, 2, s] * cov[m, i, 2] + p[f, a, s])
-                        if a == 0:
-                            y0 = wc - t0
-                        elif a == 1:
-                            y1 = wc - t1
-                        else:
-                            y2 = wc - t2
-                    d2 = 0.0
-                    for j in range(3):
-                        loc = box_R[w, 0, j] * y0 + box_R[w, 1, j] * y1 + box_R[w, 2, j] * y2
-                        e = abs(loc) - box_h[w, j]
-                        if e > 0.0:
-                            d2 += e * e
+                    # the cover ball's world center, relative to the box's
+                    y0 = (R[f, 0, 0, s] * cov[m, i, 0] + R[f, 0, 1, s] * cov[m, i, 1]
+                          + R[f, 0, 2, s] * cov[m, i, 2] + p[f, 0, s] - t0)
+                    y1 = (R[f, 1, 0, s] * cov[m, i, 0] + R[f, 1, 1, s] * cov[m, i, 1]
+                          + R[f, 1, 2, s] * cov[m, i, 2] + p[f, 1, s] - t1)
+                    y2 = (R[f, 2, 0, s] * cov[m, i, 0] + R[f, 2, 1, s] * cov[m, i, 1]
+                          + R[f, 2, 2, s] * cov[m, i, 2] + p[f, 2, s] - t2)
                     rr = cov_r[m, i] + box_r[w]
-                    if d2 <= rr * rr:
+                    if _box_d2(box_R, box_h, w, y0, y1, y2) <= rr * rr:
                         hit = True
                         break
                 if hit:
