@@ -8,7 +8,9 @@ limit. Both costs are tmit-star's composite path length (tmpc's plans report it 
 median best cost at 1, 5, 10 and 30 s of planning. Needs the shared baseline
 (``../shared/baselines/tmit-star``, restored tmit-star); skipped without it.
 
-    TMIT_TRIALS=2 TMIT_LIMIT=30 pytest -m bench -s tests/bench/test_bench_anytime.py
+    TMIT_TRIALS=2 TMIT_LIMIT=30 pytest -m bench -s -n 0 --timeout 3000 tests/bench/test_bench_anytime.py
+
+(all seven problems take ~15 min at these settings: past pytest-timeout's default 600 s)
 """
 
 from __future__ import annotations
@@ -57,15 +59,19 @@ def _tmit(work: Path, spec: str, limit: float) -> list[tuple[float, float]]:
     return [(s["time_ms"] / 1000.0, s["cost"]) for s in runs[0]] if runs and runs[0] else []
 
 
-def _tmpc(work: Path, spec: str, seed: int, limit: float) -> list[tuple[float, float]]:
+def _tmpc(work: Path, spec: str, seed: int, limit: float) -> tuple[list, bool]:
+    """tmpc's [(seconds, cost)] of its solutions, and whether its last plan validates."""
     out = work / f"plan-{seed}.json"
     env = dict(os.environ, TMPC_MESH_PATH=str(BASE / "data" / "models"))
-    subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(BASE / "data" / spec),
-                    "--planner", "optimal", "--seed", str(seed), "--time-limit", str(limit),
-                    "-q", "-o", str(out)], env=env, capture_output=True, timeout=3 * limit + 120)
+    cli = [sys.executable, "-m", "tmpc.runtime.cli"]
+    subprocess.run(cli + ["run", str(BASE / "data" / spec), "--planner", "optimal", "--seed",
+                          str(seed), "--time-limit", str(limit), "-q", "-o", str(out)],
+                   env=env, capture_output=True, timeout=3 * limit + 120)
     if not out.exists():
-        return []
-    return [tuple(x) for x in json.loads(out.read_text())["stats"].get("cost_trace", [])]
+        return [], False
+    valid = subprocess.run(cli + ["validate", str(BASE / "data" / spec), str(out)], env=env,
+                           capture_output=True, timeout=600).returncode == 0
+    return [tuple(x) for x in json.loads(out.read_text())["stats"].get("cost_trace", [])], valid
 
 
 @pytest.mark.skipif(not (BASE.is_dir() and TMIT.exists()),
@@ -74,14 +80,16 @@ def test_anytime_cost_against_tmit_star(tmp_path):
     trials = int(os.environ.get("TMIT_TRIALS", "2"))
     limit = float(os.environ.get("TMIT_LIMIT", "30"))
     problems = os.environ.get("TMIT_PROBLEMS", " ".join(PROBLEMS)).split()
-    rows, raw = [], {}
+    rows, raw, invalid = [], {}, 0
     for pb in problems:
         dom, k = pb.split(":")
         spec = f"problems/{dom}/problems/{dom}_pb_{k}.json"
         got = {"tmit-star": [], "tmpc": []}
         for t in range(1, trials + 1):
             got["tmit-star"].append(_tmit(tmp_path / "tmit", spec, limit))
-            got["tmpc"].append(_tmpc(tmp_path, spec, t, limit))
+            trace, valid = _tmpc(tmp_path, spec, t, limit)
+            got["tmpc"].append(trace)
+            invalid += bool(trace) and not valid
         raw[pb] = got
         for who, traces in got.items():
             first = [tr[0][0] if tr else math.inf for tr in traces]
@@ -97,3 +105,4 @@ def test_anytime_cost_against_tmit_star(tmp_path):
         print(f"| {pb} | {who} | {ok}/{n} | {first:.2f} | "
               + " | ".join("—" if math.isinf(c) else f"{c:.1f}" for c in at) + " |")
     print("raw traces (seconds, cost):", json.dumps(raw))
+    assert invalid == 0, f"{invalid} tmpc plans failed tmpc validate"
