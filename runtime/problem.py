@@ -207,8 +207,14 @@ class PlanningProblem:
         t = time.perf_counter()
         self.start_warm_up(rng)
         mode = self.initial
-        total = len(PAD_SIZES) + len(self._warming)
+        first_pass = self.collision.first_pass()
+        total = len(PAD_SIZES) + len(self._warming) + (first_pass is not None)
         done = 0
+        if first_pass is not None:
+            if progress is not None:       # numba compiles it on a machine's first run (~2-6 s)
+                progress("loading kernels", done, total, "collision pass")
+            first_pass.load_kernel()
+            done += 1
         for n in PAD_SIZES:
             if progress is not None:
                 progress("loading kernels", done, total, f"kinematics at {n}")

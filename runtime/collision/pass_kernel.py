@@ -18,8 +18,9 @@ stages (the tables are read in numpy before the call).
 
 numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default, as
 for :mod:`tmpc.compiler.ground.lmcut_kernel`): the first use on a machine compiles it (2.3 s,
-measured), later processes load it (~0.25 s after numba's import, ~0.2 s; a run's warm-up does
-it while XLA loads the projectors on another thread). numba is imported on the first batched
+measured), later processes load it (~0.25 s after numba's import, ~0.2 s). A run's warm-up
+loads it first (:meth:`FirstPass.load_kernel`; its progress line says ``collision pass``), while
+XLA loads the projectors on another thread. numba is imported there or at the first batched
 check, so commands that check no batch (``tmpc check``, ``tmpc plan``) do not load it.
 """
 

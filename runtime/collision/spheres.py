@@ -369,6 +369,20 @@ class FirstPass:
         c, h, r = box(geom.shape, geom.aabb_center, geom.aabb_half)
         return T[:3, :3], T[:3, :3] @ c + T[:3, 3], h, r
 
+    @staticmethod
+    def load_kernel() -> None:
+        """Load the compiled pass from numba's cache (or compile it, on a machine's first use)
+        by one call on a batch of one state and no pair."""
+        from tmpc.runtime.collision import pass_kernel
+
+        f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
+        e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
+        pass_kernel.candidates(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1),
+                               f, np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)),
+                               i, np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
+                               np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(),
+                               i.copy())
+
     def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
         """The pass over states Q (B, n); ``frames``: their kinematics when known (batch-last,
         :meth:`CollisionWorld.check_batches`), else computed here. One compiled call
