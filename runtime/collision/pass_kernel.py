@@ -87,6 +87,16 @@ def _world_balls(R, p, s, fm, cov, m, idx, n, W):
                        + R[fm, a, 2, s] * cov[m, i, 2] + p[fm, a, s])
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _emit(out_s, out_a, out_b, n, s, ga, gb):
+    """Write candidate (state s, geometries ga, gb) at n: the next free position, or -1 when the
+    outputs are full."""
+    if n == len(out_s):
+        return -1
+    out_s[n], out_a[n], out_b[n] = s, ga, gb
+    return n + 1
+
+
 @numba.njit(cache=True, nogil=True)
 def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov,
                mm, table_of, table_free, bb_start, bb_m, box_R, box_t, box_h, box_r, box_half,
@@ -103,7 +113,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
     ib = np.empty(K, np.int64)
     Wa = np.empty((K, 3))
     Wb = np.empty((K, 3))
-    cap = len(out_s)
+    every = np.arange(K)
     n_out = 0
     coarse = 0
     for s in range(B):
@@ -159,10 +169,9 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                 if hit:
                     break
             if hit:
-                if n_out == cap:
+                n_out = _emit(out_s, out_a, out_b, n_out, s, mv[a], mv[b])
+                if n_out < 0:
                     return -1, 0
-                out_s[n_out], out_a[n_out], out_b[n_out] = s, mv[a], mv[b]
-                n_out += 1
         # moving geometries against obstacle boxes, grouped by box
         for w in range(len(box_t)):
             h0, h1, h2 = box_half[w, 0], box_half[w, 1], box_half[w, 2]
@@ -176,24 +185,17 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                 if _box_d2(box_R, box_h, w, c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2) > rr * rr:
                     continue
                 coarse += 1
-                f = fpos[m]
+                _world_balls(R, p, s, fpos[m], cov, m, every, ncov[m], Wa)
                 hit = False
                 for i in range(ncov[m]):
-                    # the cover ball's world center, relative to the box's
-                    y0 = (R[f, 0, 0, s] * cov[m, i, 0] + R[f, 0, 1, s] * cov[m, i, 1]
-                          + R[f, 0, 2, s] * cov[m, i, 2] + p[f, 0, s] - t0)
-                    y1 = (R[f, 1, 0, s] * cov[m, i, 0] + R[f, 1, 1, s] * cov[m, i, 1]
-                          + R[f, 1, 2, s] * cov[m, i, 2] + p[f, 1, s] - t1)
-                    y2 = (R[f, 2, 0, s] * cov[m, i, 0] + R[f, 2, 1, s] * cov[m, i, 1]
-                          + R[f, 2, 2, s] * cov[m, i, 2] + p[f, 2, s] - t2)
                     rr = cov_r[m, i] + box_r[w]
-                    if _box_d2(box_R, box_h, w, y0, y1, y2) <= rr * rr:
+                    if _box_d2(box_R, box_h, w, Wa[i, 0] - t0, Wa[i, 1] - t1,
+                               Wa[i, 2] - t2) <= rr * rr:
                         hit = True
                         break
                 if hit:
-                    if n_out == cap:
+                    n_out = _emit(out_s, out_a, out_b, n_out, s, mv[m], box_geom[w])
+                    if n_out < 0:
                         return -1, 0
-                    out_s[n_out], out_a[n_out], out_b[n_out] = s, mv[m], box_geom[w]
-                    n_out += 1
     return n_out, coarse
 
