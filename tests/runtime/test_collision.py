@@ -343,6 +343,34 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     assert w.stats.states >= 6000
 
 
+def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile):
+    """The compiled pass writes candidates into arrays of 4 per state and starts again with
+    larger ones when they fill up: a batch buried in a box (most links a candidate in every
+    state) gives, state for state, the candidates of the same states passed one at a time."""
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = pr2_mobile
+    objs = [box("slab", (0.0, 0.0, 0.8), (1.0, 1.0, 0.6)),
+            box("post", (0.3, 0.0, 1.0), (0.1, 0.1, 0.5), True)]
+    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
+                                                                  mobile_base=True), tuple(objs))
+    w = CollisionWorld(sc, model)
+    rng = np.random.default_rng(3)
+    Q = rng.uniform(model.lower, model.upper, (40, model.dof))
+    Q[:, :2] = rng.uniform(-0.2, 0.2, (40, 2))
+    fp = w.first_pass()
+    place, allowed = w.placements()
+    plan = fp.plan(place, allowed)
+    batch = fp.candidates(Q, plan)
+    assert len(batch.states) > 4 * len(Q)              # the first outputs were too short
+    one = [fp.candidates(Q[i:i + 1], plan) for i in range(len(Q))]
+    for i, c in enumerate(one):
+        sel = batch.states == i
+        assert sorted(zip(batch.ga[sel].tolist(), batch.gb[sel].tolist())) == \
+            sorted(zip(c.ga.tolist(), c.gb.tolist()))
+    assert batch.coarse == sum(c.coarse for c in one)
+    assert (w.check_batch(Q) == CollisionWorld(sc, model, first_pass=False).check_batch(Q)).all()
+
+
 def test_batched_motion_checks_equal_exact_fcl(pr2_mobile):
     """Random straight motions: the batched path (all interpolated states through the first
     pass, fcl only on its candidates) finds the same first colliding state as exact fcl."""
