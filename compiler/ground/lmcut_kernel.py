@@ -21,23 +21,17 @@ cross a call or are rebound in a loop, which made a first version 3x slower. A r
 not bound (supporter lists, buckets, heap, output) that overflows makes the call answer ``[-2]``,
 and the caller retries with a workspace twice as large.
 
-numba caches the machine code under ``$NUMBA_CACHE_DIR``, set here (when unset) to tmpc's cache
-folder (``numba/``), so the compilation (6 s of CPU, measured) is paid once per machine; a
-process then loads it in ~0.6 s (numba's import included). This module is imported
+numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default:
+:mod:`tmpc.compiler.numbacfg`), so the compilation (6 s of CPU, measured) is paid once per
+machine; a process then loads it in ~0.6 s (numba's import included). This module is imported
 only where LM-cut runs in A*: ``tmpc --help`` and ``tmpc check`` do not load numba.
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
-from tmpc.compiler.cache import cache_root
-
-os.environ.setdefault("NUMBA_CACHE_DIR", str(cache_root() / "numba"))
-
-import numba  # noqa: E402  (after NUMBA_CACHE_DIR: numba reads it at import)
+from tmpc.compiler.numbacfg import numba
 
 #: h_max of an unreached fact
 UNREACHED = np.int64(1) << 60

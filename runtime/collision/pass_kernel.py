@@ -16,8 +16,8 @@ balls that meet the other's bounding ball take part), or a cover ball meeting th
 Pairs whose :class:`~tmpc.runtime.collision.spheres.PairTable` proves them free skip the
 stages (the tables are read in numpy before the call).
 
-numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default, as
-for :mod:`tmpc.compiler.ground.lmcut_kernel`): the first use on a machine compiles it (2.3 s,
+numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default:
+:mod:`tmpc.compiler.numbacfg`): the first use on a machine compiles it (2.3 s,
 measured), later processes load it (~0.25 s after numba's import, ~0.2 s). A run's warm-up
 loads it first (:meth:`FirstPass.load_kernel`; its progress line says ``collision pass``), while
 XLA loads the projectors on another thread. numba is imported there or at the first batched
@@ -26,15 +26,9 @@ check, so commands that check no batch (``tmpc check``, ``tmpc plan``) do not lo
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
-from tmpc.compiler.cache import cache_root
-
-os.environ.setdefault("NUMBA_CACHE_DIR", str(cache_root() / "numba"))
-
-import numba  # noqa: E402  (after NUMBA_CACHE_DIR: numba reads it at import)
+from tmpc.compiler.numbacfg import numba
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
