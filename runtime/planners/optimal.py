@@ -671,8 +671,7 @@ class OptimalPlanner:
                 return False
             if self._confirm(path):
                 break
-        self.best_cost, self.best_path = cost, path
-        self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
+        self._improve(cost, path)
         return True
 
     def _confirm(self, path: list[int]) -> bool:
@@ -749,7 +748,7 @@ class OptimalPlanner:
         if not self.opt.seed_unified or self.opt.first_solution:
             return False
         p = self.p
-        unified = UnifiedPlanner(p, seed=self.seed)
+        unified = UnifiedPlanner.from_options(p, self.seed)    # the configuration's options
         # a third of the time left at most: a problem unified is slow on keeps the rest
         res = unified.solve(max(0.0, deadline - time.perf_counter()) / 3)
         self.counts["seed"] = res.status
@@ -757,12 +756,11 @@ class OptimalPlanner:
             raise KeyboardInterrupt
         if res.status != "solved" or np.abs(p.difference(res.path[0][0], p.q0)).max() > 1e-9:
             return False
-        mode, ids, edges = self.modes[0], [0], {}
+        mode, ids = self.modes[0], [0]
         for (q, _, action), (q2, _, _) in zip(res.path, res.path[1:]):
             u = ids[-1]
             if action is None:
                 ids.append(self._add_vertex(q2, mode))
-                edges.setdefault(mode.id, []).append((u, ids[-1]))
                 continue
             if np.abs(p.difference(q2, q)).max() > 1e-9:
                 return False                 # an action that moves: not a transition vertex
@@ -778,20 +776,13 @@ class OptimalPlanner:
         if not self._goal_mode(mode) or (p.goal_formula() is not None
                                          and not p.holds(mode, None, self.Q[last])):
             return False
-        groups = list(edges.items())
-        oks = p.motions_valid_many([(self.modes[mid], self.Q[[u for u, _ in e]],
-                                     self.Q[[v for _, v in e]]) for mid, e in groups],
-                                   self.opt.resolution, ends=True)
-        if not all(ok.all() for ok in oks):
+        segs = self._segments(ids)
+        self._check_fine(segs, [[(i, i + 1) for i in range(len(s) - 1)] for s in segs])
+        if not all(self._fine[_key(u, v)] for s in segs for u, v in zip(s, s[1:])):
             self.counts["seed"] = "rejected at the resolution"
             return False
-        for _, e in groups:
-            for u, v in e:
-                self.shortcuts.append((u, v, float(p.cost(self.Q[v], self.Q[u]))))
-                self.edge_ok[_key(u, v)] = self._fine[_key(u, v)] = True
         self.goals.add(last)
-        self.best_cost, self.best_path = self._path_cost(ids), ids
-        self.trace.append((round(time.perf_counter() - self._t0, 4), round(self.best_cost, 6)))
+        self._improve(self._path_cost(ids), ids)
         return True
 
     def _shortcut(self, deadline: float) -> bool:
@@ -814,14 +805,7 @@ class OptimalPlanner:
         for _ in range(opt.shortcut_rounds):
             if time.perf_counter() >= deadline:
                 break
-            segs, cut = [], 0
-            for k in range(len(path) - 1):
-                if self.node_mode[path[k]] != self.node_mode[path[k + 1]] \
-                        or self.bridge.get(path[k], (None,))[0] == path[k + 1]:
-                    segs.append(path[cut:k + 1])
-                    cut = k + 1
-            segs.append(path[cut:])
-            dense = [self._dense(seg) for seg in segs]
+            dense = [self._dense(seg) for seg in self._segments(path)]
             tries = []
             for seg, _ in dense:
                 far = [(i, j) for i in range(len(seg)) for j in range(i + 2, len(seg))
@@ -856,9 +840,24 @@ class OptimalPlanner:
         cost = self._path_cost(path)
         if cost >= self.best_cost - 1e-6:
             return False
+        self._improve(cost, path)
+        return True
+
+    def _segments(self, path: list[int]) -> list[list[int]]:
+        """``path`` cut at its transitions (a change of mode, or a bridge): the mode segments."""
+        segs, cut = [], 0
+        for k in range(len(path) - 1):
+            if self.node_mode[path[k]] != self.node_mode[path[k + 1]] \
+                    or self.bridge.get(path[k], (None,))[0] == path[k + 1]:
+                segs.append(path[cut:k + 1])
+                cut = k + 1
+        segs.append(path[cut:])
+        return segs
+
+    def _improve(self, cost: float, path: list[int]) -> None:
+        """A new best solution, recorded in the cost-over-time trace."""
         self.best_cost, self.best_path = cost, path
         self.trace.append((round(time.perf_counter() - self._t0, 4), round(cost, 6)))
-        return True
 
     def _check_fine(self, segs: list[list[int]], pairs: list[list[tuple[int, int]]]) -> None:
         """Check the motions seg[i] -> seg[j] of each segment's pairs at the full resolution,
