@@ -400,30 +400,27 @@ class PlanningProblem:
     def motions_valid(self, mode: Mode, Q0: np.ndarray, Q1: np.ndarray, resolution: float,
                       ends: bool = False) -> np.ndarray:
         """Validity (k,) of the straight motions Q0[i] -> Q1[i] in ``mode``, all their states
-        in one batched check (no early stop: for many short motions the per-call cost, not the
-        states, dominates). ``ends``: check the end states too (else they are known valid)."""
+        in one batched check (:meth:`~tmpc.runtime.collision.world.CollisionWorld.check_segments`:
+        the first pass over all of them at once; exact fcl stops confirming a motion at its
+        first colliding state, middle first). ``ends``: check the end states too (else they
+        are known valid)."""
         return self.motions_valid_many([(mode, Q0, Q1)], resolution, ends)[0]
 
     def motions_valid_many(self, items, resolution: float, ends: bool = False
                            ) -> list[np.ndarray]:
         """:meth:`motions_valid` of several ``(mode, Q0, Q1)``: every state of every mode in
         one batched check, the kinematics shared (a search's lookahead spans a few modes)."""
-        groups, lens = [], []
+        groups = []
         for mode, Q0, Q1 in items:
             segs = [self.collision.interpolate(a, b, resolution) for a, b in zip(Q0, Q1)]
             if not ends:
                 segs = [s[1:-1] for s in segs]
-            lens.append(np.array([len(s) for s in segs], np.int64))
-            Q = np.concatenate(segs) if lens[-1].sum() else np.zeros((0, len(self.lower)))
-            groups.append((Q, mode.poses, mode.held))
+            lens = np.array([len(s) for s in segs], np.int64)
+            Q = np.concatenate(segs) if lens.sum() else np.zeros((0, len(self.lower)))
+            groups.append((Q, mode.poses, mode.held, lens))
         t = time.perf_counter()
-        oks = self.collision.check_batches(groups)
+        out = self.collision.check_segments(groups)
         self.timers.collision += time.perf_counter() - t
-        out = []
-        for ok, n in zip(oks, lens):
-            ends_at = np.cumsum(n)
-            bad = np.r_[0, np.cumsum(~np.asarray(ok))]     # colliding states before each index
-            out.append(bad[ends_at] - bad[ends_at - n] == 0)
         return out
 
     def uniform(self, rng: np.random.Generator, n: int) -> np.ndarray:

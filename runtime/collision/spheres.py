@@ -244,6 +244,11 @@ class Candidates:
     p: np.ndarray
     coarse: int                  # pairs left after the bounding-ball stage
 
+    def take(self, rows: np.ndarray) -> "Candidates":
+        """These candidates, only (and in the order of) ``rows``."""
+        return Candidates(self.states[rows], self.ga[rows], self.gb[rows], self.R, self.p,
+                          self.coarse)
+
 
 class FirstPass:
     """Sphere covers of a :class:`CollisionWorld`'s geometry and the batched candidate search."""

@@ -23,6 +23,8 @@ deep mesh-primitive overlaps). Whether a mesh pair touches at all is decided on 
 
 from __future__ import annotations
 
+import collections
+import functools
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -532,13 +534,32 @@ class CollisionWorld:
         """:meth:`check_batch` of several groups ``(Q, poses, attached)`` (states of different
         modes): the kinematics of all their states in shared calls (one per :data:`CHUNK`
         states, not one per group at least), the object poses' stages per group."""
-        groups = [(self._Q(Q) if len(Q) else np.zeros((0, self.model.dof)), poses, attached)
-                  for Q, poses, attached in groups]
+        return self._batches([(Q, poses, attached, None) for Q, poses, attached in groups])
+
+    def check_segments(self, groups) -> list[np.ndarray]:
+        """Validity of motions given by their states: groups ``(Q, poses, attached, lens)``,
+        ``Q`` the states of ``len(lens)`` motions one after another (``lens[i]`` states each);
+        returns (len(lens),) bool per group, True when every state of the motion is free.
+        Batched as :meth:`check_batches`, but exact fcl stops confirming a motion at its first
+        colliding state and visits each motion's states in bisection order (middle first:
+        where a straight motion most likely collides), so an invalid motion costs a few exact
+        queries, not one per state. The answers are :meth:`check_batches`' states, reduced."""
+        return self._batches(groups)
+
+    def _batches(self, groups) -> list[np.ndarray]:
+        groups = [(self._Q(Q) if len(Q) else np.zeros((0, self.model.dof)), poses, attached,
+                   None if lens is None else np.asarray(lens, np.int64))
+                  for Q, poses, attached, lens in groups]
         if self.first_pass() is None or len(groups) < 2:
-            return [self.check_batch(Q, poses, attached) for Q, poses, attached in groups]
-        allQ = np.concatenate([Q for Q, _, _ in groups])
+            out = []
+            for Q, poses, attached, lens in groups:
+                ok = self.check_batch(Q, poses, attached) if lens is None else \
+                    self._segments_ok(Q, poses, attached, lens, None)
+                out.append(ok)
+            return out
+        allQ = np.concatenate([Q for Q, _, _, _ in groups])
         if not len(allQ):
-            return [np.ones(0, bool) for _ in groups]
+            return [np.ones(0 if lens is None else len(lens), bool) for _, _, _, lens in groups]
         R, p = [], []
         for start in range(0, len(allQ), CHUNK):
             chunk = allQ[start:start + CHUNK]
@@ -547,16 +568,35 @@ class CollisionWorld:
             p.append(np.asarray(pc)[..., :len(chunk)])
         R, p = np.concatenate(R, -1), np.concatenate(p, -1)
         out, at = [], 0
-        for Q, poses, attached in groups:
-            ok = np.ones(len(Q), bool)
-            if len(Q):
-                key, (place, allowed) = self._placed(poses, attached)
-                frames = (R[..., at:at + len(Q)], p[..., at:at + len(Q)])
-                for start, bad in self._invalid_states(Q, place, allowed, False, key, frames):
-                    ok[start + bad] = False
-            out.append(ok)
+        for Q, poses, attached, lens in groups:
+            frames = (R[..., at:at + len(Q)], p[..., at:at + len(Q)])
+            if lens is not None:
+                out.append(self._segments_ok(Q, poses, attached, lens, frames))
+            else:
+                ok = np.ones(len(Q), bool)
+                if len(Q):
+                    key, (place, allowed) = self._placed(poses, attached)
+                    for start, bad in self._invalid_states(Q, place, allowed, False, key,
+                                                           frames):
+                        ok[start + bad] = False
+                out.append(ok)
             at += len(Q)
         return out
+
+    def _segments_ok(self, Q, poses, attached, lens, frames) -> np.ndarray:
+        """Per motion (``lens`` states each, in Q in turn): no colliding state."""
+        if lens.sum() != len(Q):
+            raise ValueError(f"motion lengths sum to {lens.sum()}, not {len(Q)} states")
+        seg = np.repeat(np.arange(len(lens)), lens)
+        if not len(Q):
+            return np.ones(len(lens), bool)
+        dead = np.zeros(len(lens), bool)
+        key, (place, allowed) = self._placed(poses, attached)
+        ranks = _bisection_ranks(lens)
+        for start, bad in self._invalid_states(Q, place, allowed, False, key, frames,
+                                               (seg, ranks, dead)):
+            dead[seg[start + bad]] = True
+        return ~dead
 
     def check_motion(self, q0, q1, resolution: float = 0.02, poses=None,
                      attached=None, details: bool = True) -> MotionReport:
@@ -596,20 +636,27 @@ class CollisionWorld:
         return self._first_pass
 
     def _invalid_states(self, Q, place, allowed, first_state_only: bool, key=None,
-                        frames=None):
+                        frames=None, motions=None):
         """Yield (chunk start, sorted indices of colliding states in the chunk); with
         ``first_state_only``, stop after the first colliding state. ``key``: the state's
         :meth:`_placed` key (its batch plan and fixed objects are then reused). ``frames``:
         the kinematics of Q, batch-last ``(R (F, 3, 3, B), p (F, 3, B))``, when known (the
-        first pass only)."""
+        first pass only). ``motions``: ``(segment of each state, its bisection rank, dead
+        segments)`` (:meth:`check_segments`): a state of a dead segment is not confirmed, and
+        ``dead`` is updated as colliding states are found; the indices yielded are then only
+        some of the colliding states, at least one per segment that has one."""
         fp = self.first_pass()
         if fp is None:
             for start in range(0, len(Q), CHUNK):
                 fpos, local, R, p = self.frames(Q[start:start + CHUNK], place)
                 bad = []
                 for i in range(len(R)):
+                    if motions is not None and motions[2][motions[0][start + i]]:
+                        continue
                     if self._exact(_world(R[i], p[i], fpos, local), allowed, first_only=True):
                         bad.append(i)
+                        if motions is not None:
+                            motions[2][motions[0][start + i]] = True
                         if first_state_only:
                             break
                 yield start, np.array(bad, np.int64)
@@ -624,7 +671,9 @@ class CollisionWorld:
             cut = None if frames is None else \
                 tuple(f[..., start:start + CHUNK] for f in frames)
             cand = fp.candidates(Q[start:start + CHUNK], plan, cut)
-            bad = self._confirm(cand, plan, first_state_only)
+            part = None if motions is None else \
+                tuple(m[start:start + CHUNK] for m in motions[:2]) + (motions[2],)
+            bad = self._confirm(cand, plan, first_state_only, part)
             self.stats.add(len(cand.R[0, 0, 0]), cand, bad)
             yield start, bad
             if len(bad) and first_state_only:
@@ -652,15 +701,21 @@ class CollisionWorld:
         self._fixed = None if key is None else (key, hit)
         return hit
 
-    def _confirm(self, cand, plan, first_state_only: bool) -> np.ndarray:
+    def _confirm(self, cand, plan, first_state_only: bool, motions=None) -> np.ndarray:
         """Exact fcl on the candidate pairs of the first pass; the sorted colliding states.
 
         The world transforms of every (moving geometry, state) the candidates name are computed
         at once in numpy; the loop only hands them to fcl, for the pairs it reaches (a state's
-        remaining pairs are skipped after its first collision)."""
+        remaining pairs are skipped after its first collision). ``motions``: the chunk's
+        ``(segment, bisection rank)`` per state and the dead segments (:meth:`_invalid_states`):
+        states are visited by rank, and a dead segment's are skipped."""
         n = len(cand.states)
         if not n:
             return np.zeros(0, np.int64)
+        if motions is not None:
+            seg, rank, dead = motions
+            order = np.lexsort((np.arange(n), cand.states, rank[cand.states]))
+            cand = cand.take(order)
         mpos = np.full(len(self.geoms), -1, np.int64)
         mpos[plan.mv] = np.arange(len(plan.mv))
         states = cand.states
@@ -676,11 +731,14 @@ class CollisionWorld:
         slot[moving] = np.arange(len(i))
         bad: list[int] = []
         cur, done, placed = -1, False, set()
+        dead_of = None if motions is None else seg.tolist()
         for row, (st, a, b) in enumerate(zip(states.tolist(), cand.ga.tolist(),
                                              cand.gb.tolist())):
             if st != cur:
                 cur, done, placed = st, False, set()
-            elif done:
+                if dead_of is not None and dead[dead_of[st]]:
+                    done = True
+            if done:
                 continue
             for g, k in ((a, slot[row, 0]), (b, slot[row, 1])):
                 if k >= 0 and g not in placed:
@@ -689,9 +747,11 @@ class CollisionWorld:
             if self._counts(self._depth(a, b)):
                 bad.append(st)
                 done = True
+                if dead_of is not None:
+                    dead[dead_of[st]] = True
                 if first_state_only:
                     break
-        return np.array(bad, np.int64)
+        return np.unique(np.array(bad, np.int64))
 
     def _Q(self, q, single: bool = False) -> np.ndarray:
         Q = np.asarray(q, float)
@@ -708,6 +768,29 @@ class CollisionWorld:
 
 # ---------------------------------------------------------------------------------------------
 # helpers
+
+
+def _bisection_ranks(lens: np.ndarray) -> np.ndarray:
+    """For motions of ``lens`` states each (one after another): each state's place in its
+    motion's bisection order (0: the middle state, then the middles of the two halves, ...)."""
+    return np.concatenate([_bisection_order(int(n)) for n in lens]) if len(lens) else \
+        np.zeros(0, np.int64)
+
+
+@functools.lru_cache(maxsize=1024)
+def _bisection_order(n: int) -> np.ndarray:
+    rank = np.empty(n, np.int64)
+    queue, k = collections.deque([(0, n)]), 0
+    while queue:
+        lo, hi = queue.popleft()
+        if lo >= hi:
+            continue
+        mid = (lo + hi) // 2
+        rank[mid], k = k, k + 1
+        queue.append((lo, mid))
+        queue.append((mid + 1, hi))
+    rank.flags.writeable = False
+    return rank
 
 
 _JITTED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()

@@ -396,6 +396,66 @@ def test_batched_motion_checks_equal_exact_fcl(pr2_mobile):
     assert outcomes == {True, False}          # both kinds of motion were exercised
 
 
+def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
+    """``check_segments`` (the planners' batched motions: exact fcl stops a motion at its first
+    colliding state, middle first) gives each motion the validity exact fcl gives all its
+    states, over several groups in one call (held objects, moved objects, empty motions),
+    with and without the first pass, and confirms fewer pairs than the per-state answer."""
+    from tmpc.runtime.collision import CollisionWorld
+    from tmpc.runtime.collision import world as cw
+    model, fk = pr2_mobile
+    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
+                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
+            for k in range(4)]
+    objs.append(box("stick1", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
+    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
+                                                                  mobile_base=True), tuple(objs))
+    fast, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
+    rng = np.random.default_rng(9)
+    A = rng.uniform(model.lower, model.upper, (90, model.dof))
+    A[:, :2] = rng.uniform(-0.8, 0.8, (90, 2))
+    B = np.clip(A + rng.normal(size=A.shape) * 0.5, model.lower, model.upper)
+    T = np.eye(4)
+    T[:3, 3] = (0.3, -0.2, 1.1)
+    held = {"stick1": (TOOL, np.eye(4))}
+
+    def motions(lo, hi, poses, att):
+        segs = [fast.interpolate(a, b, 0.05) for a, b in zip(A[lo:hi], B[lo:hi])]
+        segs.insert(len(segs) // 2, np.zeros((0, model.dof)))       # a motion of no state
+        return (np.concatenate(segs), poses, att, [len(q) for q in segs]), segs
+
+    parts = [motions(0, 30, None, None), motions(30, 31, {"stick1": T}, None),
+             motions(31, 90, None, held)]
+    groups = [g for g, _ in parts]
+    truth = [np.array([exact.check_batch(q, poses=g[1], attached=g[2]).all() if len(q) else True
+                       for q in segs]) for g, segs in parts]
+    assert set(np.concatenate(truth).tolist()) == {True, False}
+    for w in (fast, exact):
+        got = w.check_segments(groups)
+        assert [g.tolist() for g in got] == [t.tolist() for t in truth]
+    calls = {"n": 0}
+    depth = cw.CollisionWorld._depth
+
+    def counting(self, a, b):
+        calls["n"] += 1
+        return depth(self, a, b)
+
+    cw.CollisionWorld._depth = counting
+    try:
+        fast.check_segments(groups)
+        by_segment = calls["n"]
+        calls["n"] = 0
+        fast.check_batches([g[:3] for g in groups])
+        per_state = calls["n"]
+    finally:
+        cw.CollisionWorld._depth = depth
+    assert by_segment < 0.8 * per_state, (by_segment, per_state)
+    # bisection order: the middle state first, then the middles of the halves
+    assert cw._bisection_ranks(np.array([1, 0, 5, 2])).tolist() == [0, 3, 1, 0, 4, 2, 1, 0]
+    with pytest.raises(ValueError):
+        fast.check_segments([(A[:3], None, None, [1, 1])])
+
+
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
