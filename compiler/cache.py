@@ -11,7 +11,10 @@
 * ``artifacts/`` — artifacts extracted for running, by manifest digest;
 * ``collision/`` — the collision first pass's sphere covers and pair tables, by robot, and
   collision meshes as arrays (with their convex hulls), by file contents;
-* ``robots/`` — parsed URDFs (:func:`robot_tree`), so a warm run imports no URDF parser.
+* ``robots/`` — parsed URDFs (:func:`robot_tree`), so a warm run imports no URDF parser;
+* ``aot/`` — the collision pass built ahead of time into an extension module
+  (:mod:`tmpc.compiler.aot`), so a warm run imports no numba; a failed build's reason;
+* ``numba/`` — numba's machine-code cache (:mod:`tmpc.compiler.numbacfg`).
 
 Every file is written atomically (temporary file, then rename), so concurrent runs never see a
 partial artifact; two runs compiling the same problem at once both write a complete one and the
@@ -48,7 +51,9 @@ PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
          "exports": "serialized kernels reused by `tmpc compile`",
          "collision": "collision meshes, sphere covers and pair tables of robots",
          "robots": "parsed URDFs",
-         "jax": "XLA's persistent compilation cache"}
+         "jax": "XLA's persistent compilation cache",
+         "aot": "the collision pass compiled ahead of time for this machine (or why it failed)",
+         "numba": "numba's machine code (A*'s LM-cut; the collision pass without `aot`)"}
 
 
 def cache_root() -> Path:

@@ -32,7 +32,7 @@ from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, pad_batch
+from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, pad_batch, prepare_kernel
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)
 PROJECTION_BATCH = 16
@@ -121,6 +121,8 @@ class PlanningProblem:
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
         self._warming: list | None = None      # the background warm-up's futures
+        #: how the collision first pass runs (:meth:`warm_up` says), None before / without one
+        self.collision_pass: str | None = None
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
@@ -183,6 +185,8 @@ class PlanningProblem:
         with one; first-call compile 0.60-0.70 s against 0.71-0.82 s, measured 2026-12-03)."""
         if self._warming is not None:
             return
+        if self.collision.first_pass_enabled:
+            prepare_kernel()       # a machine's first run: the collision pass builds meanwhile
         starts = self.uniform(rng, PROJECTION_BATCH)
         mode = self.initial
         calls = []
@@ -213,7 +217,9 @@ class PlanningProblem:
         if first_pass is not None:
             if progress is not None:       # numba compiles it on a machine's first run (~2-6 s)
                 progress("loading kernels", done, total, "collision pass")
-            first_pass.load_kernel()
+            why = first_pass.load_kernel()
+            self.collision_pass = "built ahead of time" if why is None else \
+                f"numba's JIT ({why})"
             done += 1
         for n in PAD_SIZES:
             if progress is not None:

@@ -129,6 +129,8 @@ def _report_setup(split: dict, result) -> None:
     w(f"kernels: {kernels.get(split.get('kernels'), split.get('kernels'))}; traced this run: "
       f"{len(split.get('traced', ()))}" + (f" ({', '.join(split['traced'])})"
                                             if split.get("traced") else "") + "\n")
+    if split.get("collision_pass"):
+        w(f"collision pass: {split['collision_pass']}\n")
     parts = [("imports", "imports"), ("load", "load"), ("compile", "compile"),
              ("problem", "problem"), ("deserialize", "deserialize"),
              ("first_call", "first-call compile")]

@@ -16,12 +16,12 @@ balls that meet the other's bounding ball take part), or a cover ball meeting th
 Pairs whose :class:`~tmpc.runtime.collision.spheres.PairTable` proves them free skip the
 stages (the tables are read in numpy before the call).
 
-numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default:
-:mod:`tmpc.compiler.numbacfg`): the first use on a machine compiles it (2.3 s,
-measured), later processes load it (~0.25 s after numba's import, ~0.2 s). A run's warm-up
-loads it first (:meth:`FirstPass.load_kernel`; its progress line says ``collision pass``), while
-XLA loads the projectors on another thread. numba is imported there or at the first batched
-check, so commands that check no batch (``tmpc check``, ``tmpc plan``) do not load it.
+A run loads this kernel built ahead of time (:data:`~tmpc.runtime.collision.spheres.PASS_KERNEL`,
+:mod:`tmpc.compiler.aot`: an extension module, no numba in the process); this module is its
+source, and numba's JIT of it is the fallback when that build fails (its machine code cached
+under ``$NUMBA_CACHE_DIR``, :mod:`tmpc.compiler.numbacfg`: 2.3 s to compile on a machine's
+first use, then ~0.25 s to load after numba's ~0.2 s import). Importing this module imports
+numba: only the build's child process and that fallback do.
 """
 
 from __future__ import annotations

@@ -21,11 +21,14 @@ state by state: bounding balls and boxes (``coarse``), then the covers of the pa
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tmpc.compiler import aot
+from tmpc.compiler.aot import Kernel
 from tmpc.lang.world import Shape
 from tmpc.runtime.collision.batch import pad_batch
 from tmpc.runtime.collision.store import TABLE_FIELDS, FirstPassStore, mesh_key, robot_key
@@ -375,25 +378,23 @@ class FirstPass:
         return T[:3, :3], T[:3, :3] @ c + T[:3, 3], h, r
 
     @staticmethod
-    def load_kernel() -> None:
-        """Load the compiled pass from numba's cache (or compile it, on a machine's first use)
-        by one call on a batch of one state and no pair."""
-        from tmpc.runtime.collision import pass_kernel
-
+    def load_kernel() -> str | None:
+        """Load the compiled pass (:func:`pass_kernel`) and make one call on a batch of one
+        state and no pair; returns why it is numba's JIT, not the ahead-of-time module (None
+        when it is that module)."""
         f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
         e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
-        pass_kernel.candidates(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1),
-                               f, np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)),
-                               i, np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
-                               np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(),
-                               i.copy())
+        pass_kernel()(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1),
+                      f, np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)),
+                      i, np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
+                      np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(), i.copy())
+        return _KERNEL_STATE["why"]
 
     def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
         """The pass over states Q (B, n); ``frames``: their kinematics when known (batch-last,
         :meth:`CollisionWorld.check_batches`), else computed here. One compiled call
         (:func:`~tmpc.runtime.collision.pass_kernel.candidates`) after the pair tables."""
-        from tmpc.runtime.collision import pass_kernel
-
+        kernel = pass_kernel()
         n = len(Q)
         R, p = self.world.fk_frames(pad_batch(Q)) if frames is None else frames
         R = np.ascontiguousarray(np.asarray(R)[plan.used][..., :n])
@@ -404,7 +405,7 @@ class FirstPass:
         cap = max(64, 4 * n)
         while True:
             out = [np.empty(cap, np.int64) for _ in range(3)]
-            got, coarse = pass_kernel.candidates(
+            got, coarse = kernel(
                 R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R, plan.obb_h,
                 plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free, plan.bb_start,
                 plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r, plan.box_half,
@@ -414,6 +415,40 @@ class FirstPass:
             cap *= 4
         s, a, b = (o[:got] for o in out)
         return Candidates(s, a, b, R, p, coarse)
+
+
+#: :func:`~tmpc.runtime.collision.pass_kernel.candidates` built ahead of time (its argument
+#: types: what :meth:`FirstPass.candidates` passes; a test checks them against numba's typeof)
+PASS_KERNEL = Kernel(
+    "tmpc.runtime.collision.pass_kernel", "candidates",
+    "UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
+    "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
+    "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
+    "i8[::1], i8[::1], i8[::1], i8[::1])")
+_KERNEL_STATE: dict = {"fn": None, "why": None}
+
+
+def prepare_kernel() -> None:
+    """Start building the pass ahead of time if this machine has not yet (a run calls this
+    early: the build overlaps its other setup)."""
+    aot.prepare(PASS_KERNEL)
+
+
+def pass_kernel():
+    """The compiled candidate search: the module built ahead of time (:mod:`tmpc.compiler.aot`:
+    no numba in the process), else numba's JIT of the same source (the reason is kept in
+    ``_KERNEL_STATE["why"]`` and said once on stderr when the build has just failed)."""
+    if _KERNEL_STATE["fn"] is None:
+        module, why = aot.obtain(PASS_KERNEL)
+        if module is not None:
+            _KERNEL_STATE["fn"] = module.candidates
+        else:
+            from tmpc.runtime.collision import pass_kernel as jit
+            if why.startswith("the ahead-of-time build failed:") or "rebuilt" in why:
+                warnings.warn(f"collision pass: {why}; using numba's JIT instead (about 0.5 s "
+                              "more setup and 140 MB more memory per run)", stacklevel=2)
+            _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, why
+    return _KERNEL_STATE["fn"]
 
 
 # ---------------------------------------------------------------------------------------------

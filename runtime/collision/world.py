@@ -629,6 +629,10 @@ class CollisionWorld:
         n = max(1, int(math.ceil(np.abs(d).max() / resolution - 1e-12)))
         return a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
 
+    @property
+    def first_pass_enabled(self) -> bool:
+        return self._first_pass_enabled
+
     def first_pass(self):
         """The :class:`tmpc.runtime.collision.spheres.FirstPass` (built on first use), or None if off."""
         if self._first_pass is None and self._first_pass_enabled:

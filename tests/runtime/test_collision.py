@@ -456,6 +456,56 @@ def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
         fast.check_segments([(A[:3], None, None, [1, 1])])
 
 
+def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives(pr2_mobile):
+    """The collision pass a run loads (built ahead of time by numba.pycc) and numba's JIT of
+    the same source give the same candidates, state for state, on random states with and
+    without a held object; every argument the pass hands it has the exported signature's type
+    (an AOT module raises on others instead of compiling anew)."""
+    import numba
+
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision import CollisionWorld
+    from tmpc.runtime.collision import pass_kernel as jit
+    from tmpc.runtime.collision import spheres
+    model, fk = pr2_mobile
+    module, why = aot.obtain(spheres.PASS_KERNEL)
+    assert module is not None, why
+    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
+                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
+            for k in range(4)]
+    objs.append(box("stick0", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
+    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
+                                                                  mobile_base=True), tuple(objs))
+    w = CollisionWorld(sc, model)
+    fp = w.first_pass()
+    rng = np.random.default_rng(4)
+    Q = rng.uniform(model.lower, model.upper, (600, model.dof))
+    Q[:, :2] = rng.uniform(-1.0, 1.0, (600, 2))
+    sig = numba.core.sigutils._parse_signature_string(spheres.PASS_KERNEL.signature)
+    seen = []
+
+    def typed(*args):
+        seen.append(tuple(numba.typeof(a) for a in args))
+        return module.candidates(*args)
+
+    state = dict(spheres._KERNEL_STATE)
+    try:
+        for att in (None, {"stick0": (TOOL, np.eye(4))}):
+            plan = fp.plan(*w.placements(attached=att))
+            got = []
+            for fn in (typed, jit.candidates):
+                spheres._KERNEL_STATE["fn"] = fn
+                got.append(fp.candidates(Q, plan))
+            a, b = got
+            assert len(a.states) > 100
+            for f in ("states", "ga", "gb"):
+                assert (getattr(a, f) == getattr(b, f)).all()
+            assert a.coarse == b.coarse
+    finally:
+        spheres._KERNEL_STATE.update(state)
+    assert seen and all(t == tuple(sig.args) for t in seen), (seen[0], sig.args)
+
+
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""

@@ -1,0 +1,69 @@
+"""Kernels built ahead of time (tmpc.compiler.aot): a warm run loads the collision pass without
+numba; a build that fails or a damaged module falls back to numba's JIT with the reason, and
+never a traceback."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from tests.support import CLUTTER
+
+
+@pytest.fixture
+def kernel(tmp_path, monkeypatch):
+    """:mod:`tmpc.compiler.aot` with a private cache folder."""
+    from tmpc.compiler import aot
+    monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("TMPC_AOT", raising=False)
+    return aot
+
+
+def test_a_build_that_fails_is_recorded_and_said_once(kernel):
+    aot = kernel
+    bad = aot.Kernel("tmpc.runtime.collision.pass_kernel", "candidates", "i8(f8[:]")  # syntax
+    module, why = aot.obtain(bad)
+    assert module is None and why.startswith("the ahead-of-time build failed:"), why
+    assert bad.failed_path().exists() and not bad.path().exists()
+    module, again = aot.obtain(bad)            # not built again: the recorded failure
+    assert module is None and again.startswith("the ahead-of-time build failed before:")
+    assert why.split(": ", 1)[1] in again
+    assert not list(bad.path().parent.glob(".build-*"))      # no half-built folder left
+
+
+def test_a_damaged_module_is_removed_and_the_jit_used(kernel, monkeypatch):
+    aot = kernel
+    from tmpc.runtime.collision import spheres
+    k = spheres.PASS_KERNEL
+    k.path().parent.mkdir(parents=True)
+    k.path().write_bytes(b"\x7fELF not really")
+    module, why = aot.obtain(k)
+    assert module is None and "did not load" in why and not k.path().exists()
+    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": None, "why": None})
+    monkeypatch.setattr(aot, "obtain", lambda kernel: (None, why))
+    with pytest.warns(UserWarning, match="using numba's JIT"):
+        fn = spheres.pass_kernel()
+    from tmpc.runtime.collision import pass_kernel as jit
+    assert fn is jit.candidates
+
+
+def test_aot_off_uses_the_jit(kernel, monkeypatch):
+    monkeypatch.setenv("TMPC_AOT", "0")
+    assert kernel.obtain(kernel.Kernel("x", "y", "z")) == (None, "TMPC_AOT=0")
+
+
+def test_a_warm_run_plans_without_numba(tmp_path):
+    """The second `tmpc run` of the bundled example loads the collision pass built ahead of
+    time: numba (and LLVM) are not in the process, and `-v` says how the pass runs."""
+    code = ("import sys, json\n"
+            "from tmpc.runtime.cli.main import main\n"
+            f"rc = main(['run', {str(CLUTTER)!r}, '-o', {str(tmp_path / 'p.json')!r}, '-v'])\n"
+            "print(json.dumps([rc, 'numba' in sys.modules, 'llvmlite' in sys.modules]))\n")
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             timeout=600)
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == [0, False, False], out.stderr
+    assert "collision pass: built ahead of time" in out.stderr
