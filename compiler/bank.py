@@ -86,7 +86,8 @@ class KernelBank:
             exp = export.deserialize(bytearray(data))
             self.stats.deserialized += 1
             self.stats.seconds_deserialize += time.perf_counter() - t
-            return jax.jit(exp.call)
+            return _without_lapack(jax.jit(exp.call)) if b"lapack" not in data else \
+                jax.jit(exp.call)
         if self._source is not None and fn.key not in self._skipped_ok:
             warnings.warn(f"kernel {fn.key} is not in {self._source}: traced from its sources",
                           stacklevel=3)
@@ -187,6 +188,44 @@ class BankFunction:
         if fresh:
             trim_heap()                      # the compile's (or cache read's) freed buffers
         return out
+
+
+_LOWERING = threading.local()
+_LAPACK_HOOK: list = []
+
+
+def _without_lapack(jitted: Callable) -> Callable:
+    """``jitted`` (an exported kernel's call) lowered without JAX's LAPACK set-up.
+
+    Lowering any exported kernel for the CPU first initialises JAX's LAPACK bindings, which
+    imports scipy.linalg for its function pointers: ~0.1 s of every run's setup (measured
+    2026-12-03: bundled example 1.37-1.41 -> 1.25-1.30 s to the end of the warm-up), for
+    kernels that call no LAPACK routine (a kernel that does names ``lapack_...`` custom calls in
+    its serialized module, and the bank leaves it alone). The set-up is skipped only while this
+    thread lowers such a kernel; anything else still gets it. If JAX moves the hook, nothing is
+    skipped."""
+    if not _LAPACK_HOOK:
+        try:
+            from jax._src.export import _export
+            original = _export._ensure_backends_initialized
+        except (ImportError, AttributeError):
+            original = None
+        if original is not None:
+            def ensure(platforms):
+                if not getattr(_LOWERING, "no_lapack", False):
+                    original(platforms)
+            _export._ensure_backends_initialized = ensure
+        _LAPACK_HOOK.append(original)
+    if _LAPACK_HOOK[0] is None:
+        return jitted
+
+    def call(*args):
+        _LOWERING.no_lapack = True
+        try:
+            return jitted(*args)
+        finally:
+            _LOWERING.no_lapack = False
+    return call
 
 
 def _serialize(jax, fn: BankFunction) -> bytes:

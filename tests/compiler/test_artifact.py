@@ -290,3 +290,51 @@ def test_a_kernels_first_call_gives_the_heaps_free_pages_back(monkeypatch):
     for _ in range(3):
         np.testing.assert_allclose(np.asarray(f(np.ones((4, 3)))), 2.0)
     assert len(trims) == 1
+
+
+def test_exported_kernels_without_lapack_skip_its_set_up_and_one_with_it_still_runs(tmp_path):
+    """A kernel whose serialized module names no LAPACK routine is lowered without JAX's LAPACK
+    set-up (which imports scipy.linalg: ~0.1 s of a run's setup); a kernel that solves a linear
+    system, called after it in the same process, gets the set-up and the right answer. Exported
+    in one fresh interpreter, run in another, where nothing has imported scipy yet."""
+    head = """
+import base64, json, sys
+import numpy as np
+from tmpc.compiler.bank import KernelBank
+from tmpc.compiler.jaxcfg import configured
+jnp = configured().numpy
+spec_plain = ((("b", 3), "float64"),)
+spec_solve = (((3, 3), "float64"), ((3,), "float64"))
+"""
+    export = head + f"""
+src = KernelBank()
+src.function("plain", lambda: (lambda x: 2 * x), spec_plain)
+src.function("solve", lambda: (lambda a, b: jnp.linalg.solve(a, b)), spec_solve)
+exported, skipped = src.export()
+assert not skipped, skipped
+open({str(tmp_path / "k.json")!r}, "w").write(json.dumps(
+    {{k: base64.b64encode(v).decode() for k, v in exported.items()}}))
+"""
+    run = head + f"""
+exported = {{k: base64.b64decode(v) for k, v in
+            json.load(open({str(tmp_path / "k.json")!r})).items()}}
+bank = KernelBank(exported, source="test")
+plain = bank.function("plain", None, spec_plain)
+solve = bank.function("solve", None, spec_solve)
+out = {{"plain": np.asarray(plain(np.ones((4, 3)))).tolist(),
+       "scipy_after_plain": "scipy.linalg" in sys.modules}}
+A, b = np.array([[4.0, 1, 0], [1, 3, 1], [0, 1, 2]]), np.array([1.0, 2, 3])
+out["solve"] = np.asarray(solve(A, b)).tolist()
+out["truth"] = np.linalg.solve(A, b).tolist()
+out["traced"] = bank.stats.traced
+print(json.dumps(out))
+"""
+    for code in (export, run):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["plain"] == [[2.0] * 3] * 4
+    assert out["scipy_after_plain"] is False
+    np.testing.assert_allclose(out["solve"], out["truth"], rtol=1e-12)
+    assert out["traced"] == 0
