@@ -82,6 +82,7 @@ class PassStats:
     fine_pairs: int = 0
     settled: int = 0             # states with no candidate pair left: free without fcl
     colliding: int = 0
+    queries: int = 0             # exact fcl pair queries made on the candidates
 
     def add(self, n: int, cand, bad) -> None:
         self.states += n
@@ -177,6 +178,10 @@ class CollisionWorld:
         self._req = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
         self._first_pass_enabled = first_pass
         self._first_pass = None
+        #: exact queries and collisions found per geometry pair (:meth:`_confirm` asks a
+        #: state's likeliest pairs first: a colliding state then costs about one query)
+        self._pair_tries: np.ndarray | None = None
+        self._pair_hits: np.ndarray | None = None
         self.stats = PassStats()
         #: placements of recent states by content (batch and motion calls repeat them)
         self._placements: dict = {}
@@ -710,16 +715,25 @@ class CollisionWorld:
 
         The world transforms of every (moving geometry, state) the candidates name are computed
         at once in numpy; the loop only hands them to fcl, for the pairs it reaches (a state's
-        remaining pairs are skipped after its first collision). ``motions``: the chunk's
+        remaining pairs are skipped after its first collision; a state's pairs are asked in
+        the order of how often each pair was found colliding so far). ``motions``: the chunk's
         ``(segment, bisection rank)`` per state and the dead segments (:meth:`_invalid_states`):
         states are visited by rank, and a dead segment's are skipped."""
         n = len(cand.states)
         if not n:
             return np.zeros(0, np.int64)
+        G = len(self.geoms)
+        if self._pair_tries is None:
+            self._pair_tries = np.zeros((G, G), np.int64)
+            self._pair_hits = np.zeros((G, G), np.int64)
+        likely = (self._pair_hits[cand.ga, cand.gb] + 1.0) / \
+            (self._pair_tries[cand.ga, cand.gb] + 2.0)
         if motions is not None:
             seg, rank, dead = motions
-            order = np.lexsort((np.arange(n), cand.states, rank[cand.states]))
-            cand = cand.take(order)
+            order = np.lexsort((-likely, cand.states, rank[cand.states]))
+        else:
+            order = np.lexsort((-likely, cand.states))
+        cand = cand.take(order)
         mpos = np.full(len(self.geoms), -1, np.int64)
         mpos[plan.mv] = np.arange(len(plan.mv))
         states = cand.states
@@ -734,6 +748,7 @@ class CollisionWorld:
         slot = np.full(pos.shape, -1, np.int64)
         slot[moving] = np.arange(len(i))
         bad: list[int] = []
+        asked, hit = [], []
         cur, done, placed = -1, False, set()
         dead_of = None if motions is None else seg.tolist()
         for row, (st, a, b) in enumerate(zip(states.tolist(), cand.ga.tolist(),
@@ -748,13 +763,18 @@ class CollisionWorld:
                 if k >= 0 and g not in placed:
                     self._place(g, Rw[k], tw[k])
                     placed.add(g)
+            asked.append(row)
             if self._counts(self._depth(a, b)):
+                hit.append(row)
                 bad.append(st)
                 done = True
                 if dead_of is not None:
                     dead[dead_of[st]] = True
                 if first_state_only:
                     break
+        self.stats.queries += len(asked)
+        np.add.at(self._pair_tries, (cand.ga[asked], cand.gb[asked]), 1)
+        np.add.at(self._pair_hits, (cand.ga[hit], cand.gb[hit]), 1)
         return np.unique(np.array(bad, np.int64))
 
     def _Q(self, q, single: bool = False) -> np.ndarray:

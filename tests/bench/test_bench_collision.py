@@ -118,6 +118,8 @@ def test_pr2_clutter_collision_throughput():
           f"{st.settled / st.states:.1%} |\n"
           f"| pairs per state: after balls, boxes, tables / after covers (to fcl) | "
           f"{st.coarse_pairs / st.states:.1f} / {st.fine_pairs / st.states:.1f} |\n"
+          f"| exact fcl queries per state (a state's likeliest pairs first) | "
+          f"{st.queries / st.states:.2f} |\n"
           f"| time per state ({CHUNK}-state chunks): JAX FK | {t_fk * us:.1f} µs |\n"
           f"| time per state: pass (FK + balls + covers) | {t_pass * us:.1f} µs |\n"
           f"| JAX FK per state at 16 / 128 / 1024 states a call | "
