@@ -182,7 +182,11 @@ class PlanningProblem:
         checks and the collision warm-up on this thread. One thread, not two: two loaded two
         projectors at once, ~0.1 s sooner, but three executables loading together set the
         run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two, 380-381 MiB
-        with one; first-call compile 0.60-0.70 s against 0.71-0.82 s, measured 2026-12-03)."""
+        with one; first-call compile 0.60-0.70 s against 0.71-0.82 s, measured 2026-12-03).
+        Also tried: this thread taking the projectors the background thread has not begun,
+        the larger kinematics sizes queued last (two loads at once throughout): bundled
+        example setup 0.99 s against 1.03 s (mean of 4 interleaved runs), peak RSS 404 MB
+        against 379 MB; not kept."""
         if self._warming is not None:
             return
         if self.collision.first_pass_enabled:
