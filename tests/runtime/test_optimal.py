@@ -208,6 +208,66 @@ def test_shortcuts_are_graph_edges_checked_at_the_resolution(clutter_problem_1, 
     assert report.valid, report
 
 
+def test_smallest_is_a_stable_argsorts_first_columns():
+    """The nearest-neighbour lists' partial sort gives what a full stable argsort's first k
+    columns give: long and short rows, repeated values (ties at the k-th value), infinities."""
+    from tmpc.runtime.planners.optimal import _smallest
+    rng = np.random.default_rng(0)
+    for rows, cols, k in ((30, 500, 20), (20, 2000, 150), (5, 60, 20), (40, 300, 7), (3, 1000, 1),
+                          (4, 9, 0)):
+        for C in (rng.random((rows, cols)), rng.integers(0, 40, (rows, cols)).astype(float)):
+            C[:, ::17] = np.inf
+            want = np.argsort(C, axis=1, kind="stable")[:, :k]
+            assert (_smallest(C, k) == want).all()
+
+
+def test_the_search_graph_is_the_brute_force_graph(clutter_problem_1):
+    """The graph a search runs on (incremental nearest-neighbour lists, sparse unions) equals
+    one built by brute force from the planner's vertices: per mode, every vertex joined both
+    ways to its k cheapest others (a full sort of all costs), the transitions one way, the
+    escape stubs, shortcuts and portals both ways, the blacklisted edges removed."""
+    from tmpc.runtime.planners import optimal as opt_mod
+    p = clutter_problem_1
+    planner, _ = _solve(p, 2, first_solution=True)
+    planner._shortcut(math.inf)
+    for _ in range(2):                 # more vertices: the lists are merged, not rebuilt
+        planner._new_batch()
+        planner._sample_modes(math.inf)
+        planner._search()
+    planner._invalid.add(next(iter(sorted(planner.edge_ok))))        # one more blacklisted
+    g = planner._graph().tocoo()
+    got = {(int(a), int(b)): float(w) for a, b, w in zip(g.row, g.col, g.data)}
+    n = len(planner.node_mode)
+    k = int(math.ceil(planner.opt.rewire * (math.e + math.e / planner.dim) * math.log(n)))
+    want: dict = {}
+
+    def add(a, b, w, both=True):
+        for u, v in ((a, b), (b, a)) if both else ((a, b),):
+            want.setdefault((int(u), int(v)), max(float(w), opt_mod._BRIDGE))
+
+    for ids in planner.mode_vertices.values():
+        if len(ids) < 2:
+            continue
+        X = planner.Q[ids]
+        C = np.stack([p.cost(X, x) for x in X])
+        np.fill_diagonal(C, np.inf)
+        for i, row in enumerate(C):
+            for j in np.argsort(row, kind="stable")[:min(k, len(ids) - 1)]:
+                add(ids[i], ids[j], row[j])
+    for a, (b, _) in planner.bridge.items():
+        add(a, b, 0.0, both=False)
+    for a, b, w in planner.stubs + planner.shortcuts:
+        add(a, b, w)
+    for ins, outs in planner._portals().values():
+        for a in ins:
+            for b in outs:
+                add(a, b, float(p.cost(planner.Q[b], planner.Q[a])))
+    want = {e: w for e, w in want.items() if (min(e), max(e)) not in planner._invalid}
+    assert len(want) > 500 and planner.stubs and planner.shortcuts and planner.bridge
+    assert set(got) == set(want)
+    assert all(got[e] == pytest.approx(w, rel=1e-9, abs=1e-12) for e, w in want.items())
+
+
 def test_anytime_runs_start_from_the_unified_plan(clutter_problem_1, tmp_path):
     """Without --first-solution the first solution is unified's plan (same seed), taken as a
     graph path of this planner (same states, same cost); later ones only improve on it; with
