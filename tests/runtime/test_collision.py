@@ -58,6 +58,27 @@ def scene(model, *objects, allowed=()):
                  tuple(objects), tuple(allowed))
 
 
+def four_tables():
+    """Four 1.5 x 0.7 x 0.75 m tables 1.6 m around the origin, facing it."""
+    return [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
+                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
+            for k in range(4)]
+
+
+def mobile_scene(model, objs):
+    """A scene of ``objs`` for ``model`` on a mobile base, within 1.5 m of the origin."""
+    return Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)),
+                 RobotSpec(urdf=model.tree.path, mobile_base=True), tuple(objs))
+
+
+def random_motions(model, rng, n: int, spread: float):
+    """n random motions (starts A, ends B) of a mobile-base model: base within 0.8 m of the
+    origin, joints uniform, each end ``spread`` (normal) from its start, within the limits."""
+    A = rng.uniform(model.lower, model.upper, (n, model.dof))
+    A[:, :2] = rng.uniform(-0.8, 0.8, (n, 2))
+    return A, np.clip(A + rng.normal(size=A.shape) * spread, model.lower, model.upper)
+
+
 def world(robot, *objects, allowed_collisions=(), **kw):
     from tmpc.runtime.collision import CollisionWorld
     model, fk = robot
@@ -299,14 +320,11 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     every colliding pair of every state is among the pass's candidates."""
     from tmpc.runtime.collision import CollisionWorld
     model, fk = pr2_mobile
-    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
-                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
-            for k in range(4)]
+    objs = four_tables()
     objs += [box(f"stick{i}", (1.6 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
              for i in range(4)]
     objs.append(sphere("ball", (0.0, 0.0, 1.6), 0.1))
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    sc = mobile_scene(model, objs)
     w = CollisionWorld(sc, model)
     exact = CollisionWorld(sc, model, first_pass=False)
     rng = np.random.default_rng(11)
@@ -351,8 +369,7 @@ def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile):
     model, fk = pr2_mobile
     objs = [box("slab", (0.0, 0.0, 0.8), (1.0, 1.0, 0.6)),
             box("post", (0.3, 0.0, 1.0), (0.1, 0.1, 0.5), True)]
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    sc = mobile_scene(model, objs)
     w = CollisionWorld(sc, model)
     rng = np.random.default_rng(3)
     Q = rng.uniform(model.lower, model.upper, (40, model.dof))
@@ -376,16 +393,10 @@ def test_batched_motion_checks_equal_exact_fcl(pr2_mobile):
     pass, fcl only on its candidates) finds the same first colliding state as exact fcl."""
     from tmpc.runtime.collision import CollisionWorld
     model, fk = pr2_mobile
-    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
-                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
-            for k in range(4)]
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    objs = four_tables()
+    sc = mobile_scene(model, objs)
     fast, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
-    rng = np.random.default_rng(5)
-    A = rng.uniform(model.lower, model.upper, (60, model.dof))
-    A[:, :2] = rng.uniform(-0.8, 0.8, (60, 2))
-    B = np.clip(A + rng.normal(size=A.shape) * 0.4, model.lower, model.upper)
+    A, B = random_motions(model, np.random.default_rng(5), 60, 0.4)
     outcomes = set()
     for a, b in zip(A, B):
         m1 = fast.check_motion(a, b, 0.05, details=False)
@@ -404,17 +415,11 @@ def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
     from tmpc.runtime.collision import CollisionWorld
     from tmpc.runtime.collision import world as cw
     model, fk = pr2_mobile
-    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
-                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
-            for k in range(4)]
+    objs = four_tables()
     objs.append(box("stick1", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    sc = mobile_scene(model, objs)
     fast, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
-    rng = np.random.default_rng(9)
-    A = rng.uniform(model.lower, model.upper, (90, model.dof))
-    A[:, :2] = rng.uniform(-0.8, 0.8, (90, 2))
-    B = np.clip(A + rng.normal(size=A.shape) * 0.5, model.lower, model.upper)
+    A, B = random_motions(model, np.random.default_rng(9), 90, 0.5)
     T = np.eye(4)
     T[:3, 3] = (0.3, -0.2, 1.1)
     held = {"stick1": (TOOL, np.eye(4))}
@@ -470,12 +475,9 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
     model, fk = pr2_mobile
     module, why = aot.obtain(spheres.PASS_KERNEL)
     assert module is not None, why
-    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
-                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
-            for k in range(4)]
+    objs = four_tables()
     objs.append(box("stick0", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    sc = mobile_scene(model, objs)
     w = CollisionWorld(sc, model)
     fp = w.first_pass()
     rng = np.random.default_rng(4)
@@ -512,13 +514,10 @@ def test_exact_queries_ask_the_pairs_found_colliding_before_first(pr2_mobile):
     needs about one), with the same answers."""
     from tmpc.runtime.collision import CollisionWorld
     model, fk = pr2_mobile
-    objs = [box(f"table{k}", (1.6 * math.cos(k * math.pi / 2), 1.6 * math.sin(k * math.pi / 2),
-                              0.375), (0.75, 0.35, 0.375), yaw=k * math.pi / 2 + math.pi / 2)
-            for k in range(4)]
+    objs = four_tables()
     objs += [box(f"stick{i}", (1.6 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
              for i in range(4)]
-    sc = Scene("t", ((-1.5, 1.5), (-1.5, 1.5), (0, 2)), RobotSpec(urdf=model.tree.path,
-                                                                  mobile_base=True), tuple(objs))
+    sc = mobile_scene(model, objs)
     rng = np.random.default_rng(2)
     Q = rng.uniform(model.lower, model.upper, (3000, model.dof))
     Q[:, :2] = rng.uniform(-1.0, 1.0, (3000, 2))
