@@ -34,6 +34,7 @@ import sys
 import sysconfig
 import tempfile
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -41,6 +42,8 @@ from tmpc.compiler.cache import cache_root
 
 #: the cache sub-folder of the built modules
 FOLDER = "aot"
+#: a build taking longer is abandoned (and recorded as failed): ~5 s is usual, 20 s under load
+BUILD_SECONDS = 600
 
 
 @dataclass(frozen=True)
@@ -53,14 +56,7 @@ class Kernel:
     signature: str
 
     def digest(self) -> str:
-        spec = importlib.util.find_spec(self.module)    # the source, without importing numba
-        if spec is None or spec.origin is None:
-            raise ImportError(f"no module {self.module}")
-        h = hashlib.sha256(Path(spec.origin).read_bytes())
-        for part in (self.function, self.signature, _version("numba"), _version("numpy"),
-                     sys.version, platform.machine()):
-            h.update(b"\0" + part.encode())
-        return h.hexdigest()[:16]
+        return _digest(self.module, self.function, self.signature)
 
     def name(self) -> str:
         return f"_tmpc_aot_{self.function}_{self.digest()}"
@@ -70,6 +66,18 @@ class Kernel:
 
     def failed_path(self) -> Path:
         return cache_root() / FOLDER / (self.name() + ".failed")
+
+
+@lru_cache(maxsize=None)
+def _digest(module: str, function: str, signature: str) -> str:
+    spec = importlib.util.find_spec(module)          # the source, without importing numba
+    if spec is None or spec.origin is None:
+        raise ImportError(f"no module {module}")
+    h = hashlib.sha256(Path(spec.origin).read_bytes())
+    for part in (function, signature, _version("numba"), _version("numpy"), sys.version,
+                 platform.machine()):
+        h.update(b"\0" + part.encode())
+    return h.hexdigest()[:16]
 
 
 def _version(pkg: str) -> str:
@@ -110,7 +118,12 @@ def obtain(kernel: Kernel):
     if not path.exists() and not failed.exists():
         prepare(kernel)
         proc = _BUILDS.pop(kernel)
-        _, err = proc.communicate()
+        try:
+            _, err = proc.communicate(timeout=BUILD_SECONDS)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
+            err = f"it took over {BUILD_SECONDS} s"
         if proc.returncode != 0 or not path.exists():
             lines = [ln for ln in (err or "").strip().splitlines() if ln.strip()]
             why = lines[-1] if lines else f"exit status {proc.returncode}"

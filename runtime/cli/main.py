@@ -13,6 +13,7 @@ import math
 import os
 import sys
 import time
+import warnings
 from typing import Callable
 
 from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
@@ -432,12 +433,30 @@ def run_and_exit(argv: list[str] | None = None):
 
 
 def main(argv: list[str] | None = None) -> int:
-    streams = sys.stdout, sys.stderr
+    streams, show = (sys.stdout, sys.stderr), warnings.showwarning
     sys.stdout, sys.stderr = (s if isinstance(s, _PipeGuard) else _PipeGuard(s) for s in streams)
+    warnings.showwarning = _show_warning
     try:
         return _main(argv)
     finally:
         sys.stdout, sys.stderr = streams
+        warnings.showwarning = show
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """tmpc's own warnings as ``warning: MESSAGE`` lines (the line of tmpc's source that
+    raised one tells a user nothing); other libraries' the usual way."""
+    import tmpc.compiler
+    import tmpc.lang
+    import tmpc.runtime
+    roots = [os.path.dirname(m.__file__) + os.sep for m in (tmpc.lang, tmpc.compiler,
+                                                               tmpc.runtime)]
+    if issubclass(category, UserWarning) and \
+            any(os.path.abspath(filename).startswith(r) for r in roots):
+        (file or sys.stderr).write(f"warning: {message}\n")
+    else:
+        (file or sys.stderr).write(warnings.formatwarning(message, category, filename, lineno,
+                                                          line))
 
 
 def _main(argv: list[str] | None) -> int:

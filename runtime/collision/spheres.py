@@ -446,7 +446,8 @@ def pass_kernel():
             from tmpc.runtime.collision import pass_kernel as jit
             if why.startswith("the ahead-of-time build failed:") or "rebuilt" in why:
                 warnings.warn(f"collision pass: {why}; using numba's JIT instead (about 0.5 s "
-                              "more setup and 140 MB more memory per run)", stacklevel=2)
+                              "more setup and 140 MB more memory per run; `tmpc cache clear "
+                              "aot` tries the build again)", stacklevel=2)
             _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, why
     return _KERNEL_STATE["fn"]
 

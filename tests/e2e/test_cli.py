@@ -319,3 +319,21 @@ def test_the_clutter_generator_writes_a_run_manifest(tmp_path):
     assert gen.returncode == 0, gen.stderr
     r = run("check", str(tmp_path / "clutter-3-red.toml"))
     assert r.returncode == 0 and "ok: domain clutter + problem" in r.stderr, r.stderr
+
+
+def test_tmpc_warnings_are_one_line_each(capsys):
+    """In the CLI, a warning raised by tmpc's code is a `warning: MESSAGE` line (not Python's
+    file:line form with a line of tmpc's source); another library's keeps Python's form."""
+    import warnings
+
+    import importlib
+
+    from tmpc.runtime.collision import spheres
+    show = importlib.import_module("tmpc.runtime.cli.main")._show_warning
+    show(UserWarning("the build failed"), UserWarning, spheres.__file__, 3)
+    show(UserWarning("elsewhere"), UserWarning, warnings.__file__, 7)
+    show(DeprecationWarning("old"), DeprecationWarning, spheres.__file__, 9)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "warning: the build failed"
+    assert err[1].startswith(warnings.__file__ + ":7: UserWarning: elsewhere")
+    assert any(": DeprecationWarning: old" in line for line in err[2:])
