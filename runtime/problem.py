@@ -20,7 +20,8 @@ not in the scene, a symbolic goal unreachable even in the delete relaxation — 
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
+import collections
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,6 +87,54 @@ def batch_shapes(compiled) -> None:
 def register_run_kernels(world, compiled) -> None:
     """``build_artifact``'s ``register``: what a run needs beyond the compiler's own list."""
     batch_shapes(compiled)
+
+
+class _Loads:
+    """Calls (kernel loads) run by one background thread and, from :meth:`finish` on, by the
+    calling thread as well: each call runs once, on whichever thread takes it first."""
+
+    def __init__(self, calls: list) -> None:
+        self._todo = collections.deque(calls)
+        self._total, self._finished, self._errors = len(calls), 0, []
+        self._cv = threading.Condition()
+        threading.Thread(target=self._work, name="tmpc-warm-up", daemon=True).start()
+
+    def __len__(self) -> int:
+        return self._total
+
+    def _take(self):
+        with self._cv:
+            return self._todo.popleft() if self._todo else None
+
+    def _run(self, call) -> None:
+        try:
+            call()
+        except BaseException as exc:       # noqa: BLE001 - raised again by finish()
+            with self._cv:
+                self._errors.append(exc)
+        finally:
+            with self._cv:
+                self._finished += 1
+                self._cv.notify_all()
+
+    def _work(self) -> None:
+        while (call := self._take()) is not None:
+            self._run(call)
+
+    def finish(self, progress=None) -> None:
+        """Run the calls not yet taken here, wait for the rest; raise the first error.
+        ``progress(k)`` hears the number finished."""
+        while (call := self._take()) is not None:
+            if progress is not None:
+                progress(self._finished)
+            self._run(call)
+        with self._cv:
+            while self._finished < self._total:
+                if progress is not None:
+                    progress(self._finished)
+                self._cv.wait()
+            if self._errors:
+                raise self._errors[0]
 
 
 class PlanningProblem:
@@ -179,14 +228,15 @@ class PlanningProblem:
     def start_warm_up(self, rng: np.random.Generator) -> None:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
-        checks and the collision warm-up on this thread. One thread, not two: two loaded two
-        projectors at once, ~0.1 s sooner, but three executables loading together set the
-        run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two, 380-381 MiB
-        with one; first-call compile 0.60-0.70 s against 0.71-0.82 s, measured 2026-12-03).
-        Also tried: this thread taking the projectors the background thread has not begun,
-        the larger kinematics sizes queued last (two loads at once throughout): bundled
-        example setup 0.99 s against 1.03 s (mean of 4 interleaved runs), peak RSS 404 MB
-        against 379 MB; not kept."""
+        checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
+        projectors not yet begun on this thread too (:class:`_Loads`), the kinematics at the
+        larger batch sizes last. Never more than two executables load at once: three at once
+        set the run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two
+        background threads, 380-381 MiB with one, measured 2026-12-03). This thread used to
+        wait for the background thread alone: 1.82-1.97 s of warm setup on tmit-star's
+        shelves pb_2 (five projectors) against 1.24-1.40 s now, 1.34-1.45 s against
+        0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on clutter pb_4, for
+        1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3 interleaved runs)."""
         if self._warming is not None:
             return
         if self.collision.first_pass_enabled:
@@ -200,10 +250,13 @@ class PlanningProblem:
             calls.append((proj, self.compiled.bind_args(formula, list(action.args))))
         if self.goal_formula() is not None:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
-        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="tmpc-warm-up")
-        self._warming = [pool.submit(lambda f=f, a=a: np.asarray(
-            f(starts, mode.obj_T, mode.obj_parent, a)[0])) for f, a in calls]
-        pool.shutdown(wait=False)
+        loads = [lambda f=f, a=a: np.asarray(f(starts, mode.obj_T, mode.obj_parent, a)[0])
+                 for f, a in calls]
+        # the kinematics at the larger batch sizes last (the quickest loads; the smallest is
+        # the start check's, on this thread at once)
+        loads += [lambda n=n: np.asarray(self.collision.fk_frames(
+            np.repeat(self.q0[None], n, 0))[0]) for n in PAD_SIZES[1:]]
+        self._warming = _Loads(loads)
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so
@@ -216,7 +269,7 @@ class PlanningProblem:
         self.start_warm_up(rng)
         mode = self.initial
         first_pass = self.collision.first_pass()
-        total = len(PAD_SIZES) + len(self._warming) + (first_pass is not None)
+        total = 1 + len(self._warming) + (first_pass is not None)
         done = 0
         if first_pass is not None:
             if progress is not None:       # numba compiles it on a machine's first run (~2-6 s)
@@ -225,17 +278,13 @@ class PlanningProblem:
             self.collision_pass = "built ahead of time" if why is None else \
                 f"numba's JIT ({why})"
             done += 1
-        for n in PAD_SIZES:
-            if progress is not None:
-                progress("loading kernels", done, total, f"kinematics at {n}")
-            self.collision.check_batch(np.repeat(self.q0[None], n, 0), poses=mode.poses,
-                                       attached=mode.held)
-            done += 1
-        for fut in self._warming:
-            if progress is not None:
-                progress("loading kernels", done, total, "projectors")
-            fut.result()
-            done += 1
+        if progress is not None:
+            progress("loading kernels", done, total, "collision checks")
+        self.collision.check_batch(np.repeat(self.q0[None], PAD_SIZES[0], 0),
+                                   poses=mode.poses, attached=mode.held)
+        done += 1
+        self._warming.finish(None if progress is None else lambda k: progress(
+            "loading kernels", done + k, total, "projectors and kinematics"))
         spent = time.perf_counter() - t
         self.timers.compile += spent
         return spent
