@@ -272,7 +272,7 @@ class PlanningProblem:
         total = 1 + len(self._warming) + (first_pass is not None)
         done = 0
         if first_pass is not None:
-            if progress is not None:       # numba compiles it on a machine's first run (~2-6 s)
+            if progress is not None:       # built on a machine's first run (~5 s, aot)
                 progress("loading kernels", done, total, "collision pass")
             why = first_pass.load_kernel()
             self.collision_pass = "built ahead of time" if why is None else \

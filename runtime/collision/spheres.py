@@ -405,11 +405,17 @@ class FirstPass:
         cap = max(64, 4 * n)
         while True:
             out = [np.empty(cap, np.int64) for _ in range(3)]
-            got, coarse = kernel(
-                R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R, plan.obb_h,
-                plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free, plan.bb_start,
-                plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r, plan.box_half,
-                plan.mv, plan.box_geom, *out)
+            args = (R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R,
+                    plan.obb_h, plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free,
+                    plan.bb_start, plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r,
+                    plan.box_half, plan.mv, plan.box_geom, *out)
+            try:
+                got, coarse = kernel(*args)
+            except TypeError as exc:
+                # the module built ahead of time takes its one signature only: arguments of
+                # another type or layout (none known; a test pins the pass's) go to the JIT
+                kernel = _fall_back(exc)
+                got, coarse = kernel(*args)
             if got >= 0:
                 break
             cap *= 4
@@ -432,6 +438,17 @@ def prepare_kernel() -> None:
     """Start building the pass ahead of time if this machine has not yet (a run calls this
     early: the build overlaps its other setup)."""
     aot.prepare(PASS_KERNEL)
+
+
+def _fall_back(exc: TypeError):
+    """numba's JIT of the pass from now on (an argument the built module does not take)."""
+    from tmpc.runtime.collision import pass_kernel as jit
+    if _KERNEL_STATE["fn"] is jit.candidates:
+        raise exc
+    warnings.warn(f"collision pass: the module built ahead of time refused a call ({exc}); "
+                  "using numba's JIT from now on (please report this)", stacklevel=3)
+    _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, f"a refused call: {exc}"
+    return jit.candidates
 
 
 def pass_kernel():

@@ -67,3 +67,30 @@ def test_a_warm_run_plans_without_numba(tmp_path):
                              timeout=600)
     assert json.loads(out.stdout.strip().splitlines()[-1]) == [0, False, False], out.stderr
     assert "collision pass: built ahead of time" in out.stderr
+
+
+def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
+    """Should the pass ever hand the module built ahead of time an argument of another type,
+    the call (and every later one) goes to numba's JIT of the same source, with a warning,
+    and the answer is the JIT's: not a traceback in the middle of planning."""
+    import numpy as np
+
+    from tmpc.runtime.collision import pass_kernel as jit
+    from tmpc.runtime.collision import spheres
+
+    def picky(*args):
+        raise TypeError("No matching definition for argument type(s) array(int32, 1d, C)")
+
+    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": picky, "why": None})
+    f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
+    e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
+    with pytest.warns(UserWarning, match="refused a call"):
+        kernel = spheres._fall_back(TypeError("int32"))
+    assert kernel is jit.candidates and spheres.pass_kernel() is jit.candidates
+    assert kernel(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1), f,
+                  np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)), i,
+                  np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
+                  np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(),
+                  i.copy()) == (0, 0)
+    with pytest.raises(TypeError):             # the JIT refusing too is a real error
+        spheres._fall_back(TypeError("again"))

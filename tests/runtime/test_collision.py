@@ -537,6 +537,25 @@ def test_exact_queries_ask_the_pairs_found_colliding_before_first(pr2_mobile):
         (learned.stats.queries, forgetful.stats.queries)
 
 
+def test_a_refused_call_of_the_built_pass_is_answered_by_the_jit(pr2_mobile, monkeypatch):
+    """The pass's call reaches numba's JIT when the module built ahead of time refuses its
+    arguments (a TypeError): the batch's answers are still exact fcl's, with a warning."""
+    from tmpc.runtime.collision import CollisionWorld, spheres
+    model, fk = pr2_mobile
+    sc = mobile_scene(model, four_tables())
+    w, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
+
+    def refuses(*args):
+        raise TypeError("No matching definition")
+
+    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": refuses, "why": None})
+    Q, _ = random_motions(model, np.random.default_rng(3), 200, 0.1)
+    with pytest.warns(UserWarning, match="refused a call"):
+        got = w.check_batch(Q)
+    assert (got == exact.check_batch(Q)).all() and not got.all() and got.any()
+    assert spheres._KERNEL_STATE["why"].startswith("a refused call")
+
+
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
