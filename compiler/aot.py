@@ -34,11 +34,12 @@ import sys
 import sysconfig
 import tempfile
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 from tmpc.compiler.cache import cache_root
+from tmpc.lang.fileio import atomic_write_text
 
 #: the cache sub-folder of the built modules
 FOLDER = "aot"
@@ -68,7 +69,7 @@ class Kernel:
         return cache_root() / FOLDER / (self.name() + ".failed")
 
 
-@lru_cache(maxsize=None)
+@cache
 def _digest(module: str, function: str, signature: str) -> str:
     spec = importlib.util.find_spec(module)          # the source, without importing numba
     if spec is None or spec.origin is None:
@@ -127,7 +128,7 @@ def obtain(kernel: Kernel):
         if proc.returncode != 0 or not path.exists():
             lines = [ln for ln in (err or "").strip().splitlines() if ln.strip()]
             why = lines[-1] if lines else f"exit status {proc.returncode}"
-            _write_atomic(failed, why + "\n")
+            atomic_write_text(failed, why + "\n")
             return None, f"the ahead-of-time build failed: {why}"
     if failed.exists() and not path.exists():
         return None, "the ahead-of-time build failed before: " + \
@@ -140,13 +141,6 @@ def obtain(kernel: Kernel):
         path.unlink(missing_ok=True)
         return None, f"the built module {path} did not load ({exc}); it will be rebuilt"
     return module, None
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def build(kernel: Kernel) -> Path:
@@ -178,7 +172,7 @@ def build(kernel: Kernel) -> Path:
 if __name__ == "__main__":           # the child process of prepare()
     try:
         build(Kernel(*sys.argv[1:4]))
-    except Exception as exc:           # the parent records the last line and falls back
+    except Exception as exc:  # noqa: BLE001 - the parent records the last line, falls back
         first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
         first = first.split(" If using conda")[0]        # numba's hint for conda users
         sys.stderr.write(f"\n{type(exc).__name__}: {first}\n")

@@ -442,13 +442,11 @@ def prepare_kernel() -> None:
 
 def _fall_back(exc: TypeError):
     """numba's JIT of the pass from now on (an argument the built module does not take)."""
-    from tmpc.runtime.collision import pass_kernel as jit
-    if _KERNEL_STATE["fn"] is jit.candidates:
+    if _KERNEL_STATE["why"] is not None:       # the JIT already: its refusal is a real error
         raise exc
-    warnings.warn(f"collision pass: the module built ahead of time refused a call ({exc}); "
-                  "using numba's JIT from now on (please report this)", stacklevel=3)
-    _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, f"a refused call: {exc}"
-    return jit.candidates
+    return _use_jit(f"a refused call: {exc}",
+                    f"the module built ahead of time refused a call ({exc}); using numba's JIT "
+                    "from now on (please report this)")
 
 
 def pass_kernel():
@@ -460,13 +458,21 @@ def pass_kernel():
         if module is not None:
             _KERNEL_STATE["fn"] = module.candidates
         else:
-            from tmpc.runtime.collision import pass_kernel as jit
-            if why.startswith("the ahead-of-time build failed:") or "rebuilt" in why:
-                warnings.warn(f"collision pass: {why}; using numba's JIT instead (about 0.5 s "
-                              "more setup and 140 MB more memory per run; `tmpc cache clear "
-                              "aot` tries the build again)", stacklevel=2)
-            _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, why
+            say = why.startswith("the ahead-of-time build failed:") or "rebuilt" in why
+            _use_jit(why, f"{why}; using numba's JIT instead (about 0.5 s more setup and 140 MB "
+                     "more memory per run; `tmpc cache clear aot` tries the build again)"
+                     if say else None)
     return _KERNEL_STATE["fn"]
+
+
+def _use_jit(why: str, warning: str | None):
+    """Switch the pass to numba's JIT (imported here: only this path loads numba), saying
+    ``warning`` if given; returns the JIT's kernel."""
+    from tmpc.runtime.collision import pass_kernel as jit
+    if warning is not None:
+        warnings.warn(f"collision pass: {warning}", stacklevel=3)
+    _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, why
+    return jit.candidates
 
 
 # ---------------------------------------------------------------------------------------------

@@ -134,6 +134,11 @@ class Transition:
     #: successes per source mode
     by_mode: dict = field(default_factory=dict)
 
+    def count(self, mode_id: int) -> None:
+        """One more success, from mode ``mode_id``."""
+        self.successes += 1
+        self.by_mode[mode_id] = self.by_mode.get(mode_id, 0) + 1
+
 
 class OptimalPlanner:
     def __init__(self, problem: PlanningProblem, seed: int = 0,
@@ -442,8 +447,7 @@ class OptimalPlanner:
             tr.successes < self.opt.mode_caps * self.opt.absolute_cap
 
     def _succeed(self, tr: Transition, mode: Mode, vertex: int | None, q: np.ndarray) -> bool:
-        tr.successes += 1
-        tr.by_mode[mode.id] = tr.by_mode.get(mode.id, 0) + 1
+        tr.count(mode.id)
         self.counts["transitions"] += 1
         v = self._add_vertex(q, mode) if vertex is None else vertex
         self._to_escape.append(v)
@@ -552,6 +556,7 @@ class OptimalPlanner:
             rows.append(np.repeat(ids, kk))
             cols.append(ids[nn[:, :kk].ravel()])
             vals.append(nc[:, :kk].ravel())
+
         def sparse(r, c, w):
             return csr_matrix((np.maximum(w, _BRIDGE), (r, c)), shape=(n, n))
 
@@ -571,7 +576,7 @@ class OptimalPlanner:
         if extra:
             r, c, w = (np.concatenate(x) for x in zip(*extra))
             r, c = np.concatenate([r, c]), np.concatenate([c, r])
-            key, first = np.unique(r * n + c, return_index=True)     # a few thousand edges
+            _, first = np.unique(r * n + c, return_index=True)       # a few thousand edges
             g = g.maximum(sparse(r[first], c[first], np.concatenate([w, w])[first]))
         if self.bridge:
             src = np.fromiter(self.bridge, np.int64, len(self.bridge))
@@ -690,7 +695,7 @@ class OptimalPlanner:
         todo: dict[int, list[tuple[int, int]]] = {}
         for u, v in zip(path, path[1:]):
             key = _key(u, v)
-            if self.bridge.get(u, (None,))[0] != v and key not in self._fine:
+            if not self._is_bridge(u, v) and key not in self._fine:
                 todo.setdefault(self.node_mode[u], []).append(key)
         good = True
         groups = [(mid, keys, np.array(keys).T) for mid, keys in todo.items()]
@@ -714,9 +719,13 @@ class OptimalPlanner:
     def _valid(self, u: int, v: int) -> bool | None:
         """Is the edge u -> v collision-free (None: not checked yet; transition edges always
         are)?"""
-        if self.bridge.get(u, (None,))[0] == v:
+        if self._is_bridge(u, v):
             return True
         return self.edge_ok.get(_key(u, v))
+
+    def _is_bridge(self, u: int, v: int) -> bool:
+        """Is u -> v a transition edge (u's action taking it to v in the next mode)?"""
+        return self.bridge.get(u, (None,))[0] == v
 
     def _check(self, pairs) -> None:
         """Collision-check the unchecked edges among ``pairs`` (the popped one and those near
@@ -776,9 +785,7 @@ class OptimalPlanner:
                 return False                 # an action that moves: not a transition vertex
             new = p.successor_mode(mode, action, q, len(self.modes))
             succ, _ = self._mode(new.sym, new.poses, new.held, mode, action)
-            tr = self._transition(mode.sym, action, succ.sym)
-            tr.successes += 1
-            tr.by_mode[mode.id] = tr.by_mode.get(mode.id, 0) + 1
+            self._transition(mode.sym, action, succ.sym).count(mode.id)
             ids.append(self._add_vertex(q, succ))
             self.bridge[u] = (ids[-1], action)
             mode = succ
@@ -858,7 +865,7 @@ class OptimalPlanner:
         segs, cut = [], 0
         for k in range(len(path) - 1):
             if self.node_mode[path[k]] != self.node_mode[path[k + 1]] \
-                    or self.bridge.get(path[k], (None,))[0] == path[k + 1]:
+                    or self._is_bridge(path[k], path[k + 1]):
                 segs.append(path[cut:k + 1])
                 cut = k + 1
         segs.append(path[cut:])
@@ -937,8 +944,8 @@ class OptimalPlanner:
 
     def _path_cost(self, path: list[int]) -> float:
         """Composite length of a path of vertices (transition edges cost nothing)."""
-        return float(sum(0.0 if self.bridge.get(u, (None,))[0] == v
-                         else self.p.cost(self.Q[v], self.Q[u]) for u, v in zip(path, path[1:])))
+        return float(sum(0.0 if self._is_bridge(u, v) else self.p.cost(self.Q[v], self.Q[u])
+                         for u, v in zip(path, path[1:])))
 
     # ---- the loop ----------------------------------------------------------------------------
     def solve(self, time_limit: float, progress=None) -> OptimalResult:
