@@ -9,7 +9,7 @@ same njit functions for one explicit signature into an extension module that nee
 to import (~1 ms, ~1 MB).
 
 How: :func:`obtain` returns the module of a :class:`Kernel` from the cache folder (``aot/``),
-named by a digest of the kernel's source file, its signature and the numba, numpy and Python
+named by a digest of the kernel's source file, its exports' signatures and the numba, numpy and Python
 versions, so a changed kernel builds anew. Without one it builds it in a child process
 (``python -m tmpc.compiler.aot``: numba, a C compiler and Python's headers, ~5 s) into a
 temporary folder and renames the module into place, so concurrent runs never load a partial
@@ -49,18 +49,18 @@ BUILD_SECONDS = 600
 
 @dataclass(frozen=True)
 class Kernel:
-    """An njit function ``function`` of ``module`` (a dotted name) exported with ``signature``
-    (numba's signature syntax; arguments of other types are a TypeError, not a new build)."""
+    """The njit functions of ``module`` (a dotted name) exported as ``exports``: (function,
+    signature) pairs, numba's signature syntax; arguments of other types are a TypeError, not
+    a new build. One module, one build, however many functions."""
 
     module: str
-    function: str
-    signature: str
+    exports: tuple[tuple[str, str], ...]
 
     def digest(self) -> str:
-        return _digest(self.module, self.function, self.signature)
+        return _digest(self.module, self.exports)
 
     def name(self) -> str:
-        return f"_tmpc_aot_{self.function}_{self.digest()}"
+        return f"_tmpc_aot_{self.module.rsplit('.', 1)[-1]}_{self.digest()}"
 
     def path(self) -> Path:
         return cache_root() / FOLDER / (self.name() + sysconfig.get_config_var("EXT_SUFFIX"))
@@ -70,13 +70,13 @@ class Kernel:
 
 
 @cache
-def _digest(module: str, function: str, signature: str) -> str:
+def _digest(module: str, exports: tuple[tuple[str, str], ...]) -> str:
     spec = importlib.util.find_spec(module)          # the source, without importing numba
     if spec is None or spec.origin is None:
         raise ImportError(f"no module {module}")
     h = hashlib.sha256(Path(spec.origin).read_bytes())
-    for part in (function, signature, _version("numba"), _version("numpy"), sys.version,
-                 platform.machine()):
+    for part in (*(x for pair in exports for x in pair), _version("numba"), _version("numpy"),
+                 sys.version, platform.machine()):
         h.update(b"\0" + part.encode())
     return h.hexdigest()[:16]
 
@@ -104,8 +104,8 @@ def prepare(kernel: Kernel) -> None:
         return
     kernel.path().parent.mkdir(parents=True, exist_ok=True)
     _BUILDS[kernel] = subprocess.Popen(
-        [sys.executable, "-m", "tmpc.compiler.aot", kernel.module, kernel.function,
-         kernel.signature], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+        [sys.executable, "-m", "tmpc.compiler.aot", kernel.module,
+         *(x for pair in kernel.exports for x in pair)], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE, text=True)
 
 
@@ -158,7 +158,8 @@ def build(kernel: Kernel) -> Path:
         cc.output_dir = str(work)
         cc.target_cpu = "host"        # built where it runs: this machine's instruction set
         cc.verbose = False
-        cc.export(kernel.function, kernel.signature)(getattr(module, kernel.function).py_func)
+        for function, signature in kernel.exports:
+            cc.export(function, signature)(getattr(module, function).py_func)
         cc.compile()
         built = work / target.name
         if not built.exists():
@@ -171,7 +172,8 @@ def build(kernel: Kernel) -> Path:
 
 if __name__ == "__main__":           # the child process of prepare()
     try:
-        build(Kernel(*sys.argv[1:4]))
+        args = sys.argv[2:]
+        build(Kernel(sys.argv[1], tuple(zip(args[::2], args[1::2]))))
     except Exception as exc:  # noqa: BLE001 - the parent records the last line, falls back
         first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
         first = first.split(" If using conda")[0]        # numba's hint for conda users

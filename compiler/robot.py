@@ -255,6 +255,66 @@ def make_fk(model: RobotModel, only=None):
     return fk
 
 
+class FkTables(NamedTuple):
+    """:func:`make_fk`'s program as arrays, for a compiled loop over it (the collision
+    checker's kinematics, :mod:`tmpc.runtime.collision.pass_kernel`). Step k sets frame
+    ``child[k]`` from frame ``parent[k]``: ``R = R_parent origin_R[k]``, ``p = p_parent +
+    R_parent origin_p[k]``, then for ``kind`` 1 (revolute) the Rodrigues rotation by
+    v = ``offset[k] + scale[k] q[source[k]]`` (no q term when ``source[k]`` < 0) about
+    ``axis[k]``, for ``kind`` 2 (prismatic) a shift by v along it; kind 0 is fixed. The root
+    frame is the fixed ``base_R``/``base_p``, or for a mobile base ``Rz(q[2]) tilt`` at
+    (q[0], q[1], ``z0``). Frames in ``missing`` are reached by no step: NaN, as in
+    :func:`make_fk`."""
+
+    parent: np.ndarray       # (S,) int64
+    child: np.ndarray        # (S,) int64
+    origin_R: np.ndarray     # (S, 3, 3)
+    origin_p: np.ndarray     # (S, 3)
+    kind: np.ndarray         # (S,) int64
+    axis: np.ndarray         # (S, 3)
+    source: np.ndarray       # (S,) int64
+    scale: np.ndarray        # (S,)
+    offset: np.ndarray       # (S,)
+    root: int
+    mobile: bool
+    base_R: np.ndarray       # (3, 3)
+    base_p: np.ndarray       # (3,)
+    tilt: np.ndarray         # (3, 3)
+    z0: float
+    missing: np.ndarray      # (M,) int64
+    n_frames: int
+
+
+_KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2}
+
+
+def fk_tables(model: RobotModel) -> FkTables:
+    """:class:`FkTables` of a model (the same program and numbers as :func:`make_fk`)."""
+    steps = _program(model)
+    base = pose_matrix(model.base_pose)
+    root = model.frames.index(model.tree.root)
+    child = np.array([st.child for st in steps], np.int64).reshape(-1)
+    c0, s0 = math.cos(base_yaw(model.base_pose)), math.sin(base_yaw(model.base_pose))
+    tilt = np.array([[c0, s0, 0.0], [-s0, c0, 0.0], [0.0, 0.0, 1.0]]) @ base[:3, :3]
+
+    def rows(values, shape, dtype=float):
+        return np.ascontiguousarray(np.array(values, dtype).reshape((len(steps),) + shape))
+
+    return FkTables(
+        rows([st.parent for st in steps], (), np.int64), child,
+        rows([st.origin[:3, :3] for st in steps], (3, 3)),
+        rows([st.origin[:3, 3] for st in steps], (3,)),
+        rows([_KINDS[st.kind] for st in steps], (), np.int64),
+        rows([st.axis for st in steps], (3,)),
+        rows([st.source for st in steps], (), np.int64),
+        rows([st.scale for st in steps], ()), rows([st.offset for st in steps], ()),
+        root, bool(model.mobile_base), np.ascontiguousarray(base[:3, :3]),
+        np.ascontiguousarray(base[:3, 3]), np.ascontiguousarray(tilt), float(base[2, 3]),
+        np.array(sorted(set(range(len(model.frames))) - set(child.tolist()) - {root}),
+                 np.int64).reshape(-1),
+        len(model.frames))
+
+
 def make_fk_frames(model: RobotModel):
     """``frames(Q: (B, n)) -> (R (F, 3, 3, B), p (F, 3, B))``: :func:`make_fk` of a batch,
     batch-last. The collision checker's kinematics: its numpy stages select the frames they need

@@ -33,7 +33,7 @@ from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, pad_batch, prepare_kernel
+from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, prepare_kernel
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)
 PROJECTION_BATCH = 16
@@ -72,12 +72,12 @@ class Timers:
 
 def batch_shapes(compiled) -> None:
     """The batch sizes planning calls kernels with, for the bank to export concretely: the
-    projection batch of every action schema's and the goal's projector, the collision checker's
-    padded batches of the forward kinematics. Called before exporting (``tmpc compile``, the run
-    cache) and by every problem, so a run from an artifact calls the concrete kernels."""
+    projection batch of every action schema's and the goal's projector. Called before exporting
+    (``tmpc compile``, the run cache) and by every problem, so a run from an artifact calls the
+    concrete kernels. (The collision checker's kinematics is a compiled loop of its own,
+    :mod:`tmpc.runtime.collision.kinematics`, not an exported kernel.)"""
     if compiled.model is None or compiled.program is None:
         return
-    compiled.fk_frames.specialize(PAD_SIZES)
     for act in compiled.program.domain.actions:
         compiled.projector(compiled.action(act.name.text)).specialize((PROJECTION_BATCH,))
     if compiled.program.problem is not None and compiled.goal is not None:
@@ -229,18 +229,18 @@ class PlanningProblem:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
-        projectors not yet begun on this thread too (:class:`_Loads`), the kinematics at the
-        larger batch sizes last. Never more than two executables load at once: three at once
+        projectors not yet begun on this thread too (:class:`_Loads`). Never more than two executables load at once: three at once
         set the run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two
         background threads, 380-381 MiB with one, measured 2026-12-03). This thread used to
         wait for the background thread alone: 1.82-1.97 s of warm setup on tmit-star's
         shelves pb_2 (five projectors) against 1.24-1.40 s now, 1.34-1.45 s against
         0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on clutter pb_4, for
-        1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3 interleaved runs)."""
+        1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3 interleaved runs).
+        (The kinematics at two padded batch sizes were loaded here too, until the collision
+        checker's kinematics became a compiled loop of its own.)"""
         if self._warming is not None:
             return
-        if self.collision.first_pass_enabled:
-            prepare_kernel()       # a machine's first run: the collision pass builds meanwhile
+        prepare_kernel()   # a machine's first run: the collision kernels build meanwhile
         starts = self.uniform(rng, PROJECTION_BATCH)
         mode = self.initial
         calls = []
@@ -252,17 +252,12 @@ class PlanningProblem:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
         loads = [lambda f=f, a=a: np.asarray(f(starts, mode.obj_T, mode.obj_parent, a)[0])
                  for f, a in calls]
-        # the kinematics at the larger batch sizes last (the quickest loads; the smallest is
-        # the start check's, on this thread at once)
-        loads += [lambda n=n: np.asarray(self.collision.fk_frames(
-            np.repeat(self.q0[None], n, 0))[0]) for n in PAD_SIZES[1:]]
         self._warming = _Loads(loads)
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so
         planning time is planning: every action schema's projector at the projection batch
-        shape, the goal's, and the collision checker's kinematics at its padded batch sizes
-        (every batch runs in chunks of at most one of them). Returns the seconds spent here,
+        shape, the goal's, and the collision checker's compiled kernels. Returns the seconds spent here,
         waiting included (also in ``compile``). ``progress(phase, done, total, detail)`` hears
         how many of the calls are done."""
         t = time.perf_counter()
@@ -284,19 +279,18 @@ class PlanningProblem:
                                    poses=mode.poses, attached=mode.held)
         done += 1
         self._warming.finish(None if progress is None else lambda k: progress(
-            "loading kernels", done + k, total, "projectors and kinematics"))
+            "loading kernels", done + k, total, "projectors"))
         spent = time.perf_counter() - t
         self.timers.compile += spent
         return spent
 
     def frames_of(self, Q: np.ndarray) -> list[Frames]:
         """Forward kinematics (numpy :class:`Frames`) of states Q (B, n), through the collision
-        checker's batched kernel (no kernel of its own to load)."""
+        checker's (no kernel of its own to load)."""
         out = []
         for start in range(0, len(Q), CHUNK):
             chunk = np.asarray(Q[start:start + CHUNK], float)
-            R, p = self.compiled.fk_frames(pad_batch(chunk))
-            R, p = np.asarray(R), np.asarray(p)
+            R, p = self.collision.kinematics(chunk)
             out += [Frames(R[..., i], p[..., i]) for i in range(len(chunk))]
         return out
 

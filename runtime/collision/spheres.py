@@ -396,7 +396,7 @@ class FirstPass:
         (:func:`~tmpc.runtime.collision.pass_kernel.candidates`) after the pair tables."""
         kernel = pass_kernel()
         n = len(Q)
-        R, p = self.world.fk_frames(pad_batch(Q)) if frames is None else frames
+        R, p = self.world.kinematics(Q) if frames is None else frames
         R = np.ascontiguousarray(np.asarray(R)[plan.used][..., :n])
         p = np.ascontiguousarray(np.asarray(p)[plan.used][..., :n])
         free = np.zeros((len(plan.tables), n), bool)
@@ -414,7 +414,7 @@ class FirstPass:
             except TypeError as exc:
                 # the module built ahead of time takes its one signature only: arguments of
                 # another type or layout (none known; a test pins the pass's) go to the JIT
-                kernel = _fall_back(exc)
+                kernel = _fall_back(exc, "candidates")
                 got, coarse = kernel(*args)
             if got >= 0:
                 break
@@ -423,15 +423,24 @@ class FirstPass:
         return Candidates(s, a, b, R, p, coarse)
 
 
-#: :func:`~tmpc.runtime.collision.pass_kernel.candidates` built ahead of time (its argument
-#: types: what :meth:`FirstPass.candidates` passes; a test checks them against numba's typeof)
-PASS_KERNEL = Kernel(
-    "tmpc.runtime.collision.pass_kernel", "candidates",
-    "UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
-    "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
-    "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
-    "i8[::1], i8[::1], i8[::1], i8[::1])")
-_KERNEL_STATE: dict = {"fn": None, "why": None}
+#: the collision checker's compiled loops built ahead of time, in one module:
+#: :func:`~tmpc.runtime.collision.pass_kernel.candidates` and
+#: :func:`~tmpc.runtime.collision.pass_kernel.kinematics` (their argument types: what
+#: :meth:`FirstPass.candidates` and :class:`~tmpc.runtime.collision.kinematics.Kinematics`
+#: pass; a test checks them against numba's typeof)
+PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
+    ("candidates",
+     "UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
+     "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
+     "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
+     "i8[::1], i8[::1], i8[::1], i8[::1])"),
+    ("kinematics",
+     "void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
+     "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
+     "f8[:,:,::1])")))
+#: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
+#: JIT) and why the JIT (None: the built module)
+_KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}
 
 
 def prepare_kernel() -> None:
@@ -440,39 +449,41 @@ def prepare_kernel() -> None:
     aot.prepare(PASS_KERNEL)
 
 
-def _fall_back(exc: TypeError):
-    """numba's JIT of the pass from now on (an argument the built module does not take)."""
+def _fall_back(exc: TypeError, name: str = "candidates"):
+    """numba's JIT of the pass from now on (an argument the built module does not take);
+    returns the JIT's function ``name``."""
     if _KERNEL_STATE["why"] is not None:       # the JIT already: its refusal is a real error
         raise exc
-    return _use_jit(f"a refused call: {exc}",
-                    f"the module built ahead of time refused a call ({exc}); using numba's JIT "
-                    "from now on (please report this)")
+    _use_jit(f"a refused call: {exc}",
+             f"the module built ahead of time refused a call ({exc}); using numba's JIT "
+             "from now on (please report this)")
+    return _KERNEL_STATE[name]
 
 
-def pass_kernel():
-    """The compiled candidate search: the module built ahead of time (:mod:`tmpc.compiler.aot`:
-    no numba in the process), else numba's JIT of the same source (the reason is kept in
-    ``_KERNEL_STATE["why"]`` and said once on stderr when the build has just failed)."""
-    if _KERNEL_STATE["fn"] is None:
+def pass_kernel(name: str = "candidates"):
+    """The compiled function ``name`` (``candidates``: the candidate search; ``kinematics``):
+    the module built ahead of time (:mod:`tmpc.compiler.aot`: no numba in the process), else
+    numba's JIT of the same source (the reason is kept in ``_KERNEL_STATE["why"]`` and said
+    once on stderr when the build has just failed)."""
+    if _KERNEL_STATE[name] is None:
         module, why = aot.obtain(PASS_KERNEL)
         if module is not None:
-            _KERNEL_STATE["fn"] = module.candidates
+            _KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics)
         else:
             say = why.startswith("the ahead-of-time build failed:") or "rebuilt" in why
             _use_jit(why, f"{why}; using numba's JIT instead (about 0.5 s more setup and 140 MB "
                      "more memory per run; `tmpc cache clear aot` tries the build again)"
                      if say else None)
-    return _KERNEL_STATE["fn"]
+    return _KERNEL_STATE[name]
 
 
-def _use_jit(why: str, warning: str | None):
+def _use_jit(why: str, warning: str | None) -> None:
     """Switch the pass to numba's JIT (imported here: only this path loads numba), saying
-    ``warning`` if given; returns the JIT's kernel."""
+    ``warning`` if given."""
     from tmpc.runtime.collision import pass_kernel as jit
     if warning is not None:
         warnings.warn(f"collision pass: {warning}", stacklevel=3)
-    _KERNEL_STATE["fn"], _KERNEL_STATE["why"] = jit.candidates, why
-    return jit.candidates
+    _KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, why=why)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -603,10 +614,10 @@ def _path_joints(model, link: str) -> list:
 
 
 def _frame_world(world, q, link: str) -> np.ndarray:
-    R, p = world.fk_frames(pad_batch(np.asarray(q, float)[None]))
+    R, p = world.kinematics(np.asarray(q, float)[None])
     f = world.model.frame(link)
     T = np.eye(4)
-    T[:3, :3], T[:3, 3] = np.asarray(R)[f, :, :, 0], np.asarray(p)[f, :, 0]
+    T[:3, :3], T[:3, 3] = R[f, :, :, 0], p[f, :, 0]
     return T
 
 

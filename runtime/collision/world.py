@@ -34,7 +34,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from tmpc.compiler.jaxcfg import configured
-from tmpc.compiler.robot import RobotModel, make_fk, make_fk_frames, robot_model
+from tmpc.compiler.robot import RobotModel, make_fk, robot_model
 from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import SceneError, error
 from tmpc.lang.world import Scene, Shape, find_srdf
@@ -46,6 +46,7 @@ from tmpc.runtime.collision.geometry import (
     rigid_groups,
     srdf_disabled_pairs,
 )
+from tmpc.runtime.collision.kinematics import Kinematics
 from tmpc.runtime.collision.spheres import FirstPass
 
 #: numerical slack on penetration depth: a resting contact computed as 1e-12 deep is not a collision
@@ -138,8 +139,10 @@ class CollisionWorld:
             raise SceneError(error("E572", f"penetration tolerance {tolerance} must be a finite "
                                    "number >= 0", None, "planet used 0.021 m, tmit-star 0.029 m"))
         self.scene, self.model, self.tolerance = scene, model, float(tolerance)
-        #: batched kinematics, batch-last (:func:`tmpc.compiler.robot.make_fk_frames`)
-        self.fk_frames = frames if frames is not None else jit_fk_frames(model)
+        #: batched kinematics, batch-last: ``frames`` (the JAX kernel,
+        #: :func:`tmpc.compiler.robot.make_fk_frames`, padded by :meth:`kinematics`) or the
+        #: compiled loop (:class:`~tmpc.runtime.collision.kinematics.Kinematics`)
+        self.fk_frames = frames if frames is not None else Kinematics(model)
         self.bodies: list[Body] = []
         self.geoms: list[Geom] = []
         self._groups = rigid_groups(model.tree)
@@ -454,6 +457,15 @@ class CollisionWorld:
         """:meth:`check` of a :class:`tmpc.compiler.state.WorldState`."""
         return self.check(state.q, state.poses, state.held)
 
+    def kinematics(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics of states Q (B, n), batch-last numpy: (R (F, 3, 3, B), p (F, 3,
+        B)) over ``model.frames``. A kinematics that compiles per batch shape (JAX's, ``pads``
+        not False) gets Q padded (:func:`pad_batch`)."""
+        if not getattr(self.fk_frames, "pads", True):
+            return self.fk_frames(Q)
+        R, p = self.fk_frames(pad_batch(Q))
+        return np.asarray(R)[..., :len(Q)], np.asarray(p)[..., :len(Q)]
+
     def frames(self, Q: np.ndarray, place) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                                     np.ndarray]:
         """Forward kinematics of the frames the dynamic geometries hang on, for states Q (B, n):
@@ -462,9 +474,9 @@ class CollisionWorld:
         gframe, local = self.geom_frames(place)
         used = np.unique(gframe[gframe >= 0])
         fpos = np.where(gframe >= 0, np.searchsorted(used, gframe), len(used))
-        R, p = self.fk_frames(pad_batch(Q))
-        R = np.asarray(R)[used][..., :len(Q)].transpose(3, 0, 1, 2)
-        p = np.asarray(p)[used][..., :len(Q)].transpose(2, 0, 1)
+        R, p = self.kinematics(Q)
+        R = R[used].transpose(3, 0, 1, 2)
+        p = p[used].transpose(2, 0, 1)
         R = np.concatenate([R, np.broadcast_to(np.eye(3), (len(Q), 1, 3, 3))], 1)
         p = np.concatenate([p, np.zeros((len(Q), 1, 3))], 1)
         return fpos, local, R, p
@@ -568,9 +580,9 @@ class CollisionWorld:
         R, p = [], []
         for start in range(0, len(allQ), CHUNK):
             chunk = allQ[start:start + CHUNK]
-            Rc, pc = self.fk_frames(pad_batch(chunk))
-            R.append(np.asarray(Rc)[..., :len(chunk)])
-            p.append(np.asarray(pc)[..., :len(chunk)])
+            Rc, pc = self.kinematics(chunk)
+            R.append(Rc)
+            p.append(pc)
         R, p = np.concatenate(R, -1), np.concatenate(p, -1)
         out, at = [], 0
         for Q, poses, attached, lens in groups:
@@ -827,17 +839,6 @@ def _jit_fk(model: RobotModel):
     return _JITTED[model]
 
 
-def jit_fk_frames(model: RobotModel):
-    """The jitted batch-last FK of a model (:func:`make_fk_frames`), shared per model: the
-    kinematics of a world built without a compiled program."""
-    if model not in _JITTED_FRAMES:
-        _JITTED_FRAMES[model] = configured().jit(make_fk_frames(model))
-    return _JITTED_FRAMES[model]
-
-
-_JITTED_FRAMES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
 def _world(R: np.ndarray, p: np.ndarray, fpos: np.ndarray, local: np.ndarray) -> np.ndarray:
     """World transforms (..., Gd, 4, 4) of geometries hanging on frames ``fpos`` of R/p."""
     Rf, pf = R[..., fpos, :, :], p[..., fpos, :]
@@ -867,5 +868,5 @@ def collision_world(world, compiled, tolerance: float = 0.0) -> CollisionWorld:
     :class:`~tmpc.compiler.compile.CompiledProgram`, for the forward kinematics). Every link mesh
     must load here (E562 names a missing one); kinematics alone does not need them."""
     model = robot_model(world.scene, strict_meshes=True) if compiled.model is not None else None
-    return CollisionWorld(world.scene, model, compiled.fk_frames, tolerance=tolerance,
+    return CollisionWorld(world.scene, model, tolerance=tolerance,
                           allowed=world.allowed_pairs())

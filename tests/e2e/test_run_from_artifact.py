@@ -99,10 +99,11 @@ def test_a_run_from_the_cache_compiles_nothing(cache_dir, monkeypatch, tmp_path)
     monkeypatch.setattr(cache, "load_urdf", _no_urdf_parse)
     world, split = open_input(src / "tabletop.toml")
     assert split["kernels"] == "cache"
-    # the run's batch sizes are exported concretely (no symbolic-shape refinement when loaded)
+    # the run's batch sizes are exported concretely (no symbolic-shape refinement when loaded);
+    # the collision checker's kinematics is its own compiled loop, not an exported kernel
     kernels = world.artifact[1]["bank"]["kernels"]
-    assert {"fk/frames@16", "fk/frames@128",
-            "proj/action/pick@16"} <= set(kernels)
+    assert "proj/action/pick@16" in kernels and not any(k.startswith("fk/frames@")
+                                                         for k in kernels)
     problem, result, _ = plan_problem(world, seed=1, time_limit=60.0)
     assert result.status == "solved" and problem.setup["traced"] == []
     # a changed source is a different key: compiled anew, not the stale artifact

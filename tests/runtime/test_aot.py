@@ -24,7 +24,7 @@ def kernel(tmp_path, monkeypatch):
 
 def test_a_build_that_fails_is_recorded_and_said_once(kernel):
     aot = kernel
-    bad = aot.Kernel("tmpc.runtime.collision.pass_kernel", "candidates", "i8(f8[:]")  # syntax
+    bad = aot.Kernel("tmpc.runtime.collision.pass_kernel", (("candidates", "i8(f8[:]"),))  # syntax
     module, why = aot.obtain(bad)
     assert module is None and why.startswith("the ahead-of-time build failed:"), why
     assert bad.failed_path().exists() and not bad.path().exists()
@@ -42,17 +42,18 @@ def test_a_damaged_module_is_removed_and_the_jit_used(kernel, monkeypatch):
     k.path().write_bytes(b"\x7fELF not really")
     module, why = aot.obtain(k)
     assert module is None and "did not load" in why and not k.path().exists()
-    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": None, "why": None})
+    monkeypatch.setattr(spheres, "_KERNEL_STATE",
+                        {"candidates": None, "kinematics": None, "why": None})
     monkeypatch.setattr(aot, "obtain", lambda kernel: (None, why))
     with pytest.warns(UserWarning, match="using numba's JIT"):
         fn = spheres.pass_kernel()
     from tmpc.runtime.collision import pass_kernel as jit
-    assert fn is jit.candidates
+    assert fn is jit.candidates and spheres.pass_kernel("kinematics") is jit.kinematics
 
 
 def test_aot_off_uses_the_jit(kernel, monkeypatch):
     monkeypatch.setenv("TMPC_AOT", "0")
-    assert kernel.obtain(kernel.Kernel("x", "y", "z")) == (None, "TMPC_AOT=0")
+    assert kernel.obtain(kernel.Kernel("x", (("y", "z"),))) == (None, "TMPC_AOT=0")
 
 
 def test_a_warm_run_plans_without_numba(tmp_path):
@@ -81,12 +82,14 @@ def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
     def picky(*args):
         raise TypeError("No matching definition for argument type(s) array(int32, 1d, C)")
 
-    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": picky, "why": None})
+    monkeypatch.setattr(spheres, "_KERNEL_STATE",
+                        {"candidates": picky, "kinematics": picky, "why": None})
     f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
     e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
     with pytest.warns(UserWarning, match="refused a call"):
         kernel = spheres._fall_back(TypeError("int32"))
     assert kernel is jit.candidates and spheres.pass_kernel() is jit.candidates
+    assert spheres.pass_kernel("kinematics") is jit.kinematics       # both switch
     assert kernel(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1), f,
                   np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)), i,
                   np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,

@@ -483,7 +483,8 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
     rng = np.random.default_rng(4)
     Q = rng.uniform(model.lower, model.upper, (600, model.dof))
     Q[:, :2] = rng.uniform(-1.0, 1.0, (600, 2))
-    sig = numba.core.sigutils._parse_signature_string(spheres.PASS_KERNEL.signature)
+    sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)
+                                                      ["candidates"])
     seen = []
 
     def typed(*args):
@@ -496,7 +497,7 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
             plan = fp.plan(*w.placements(attached=att))
             got = []
             for fn in (typed, jit.candidates):
-                spheres._KERNEL_STATE["fn"] = fn
+                spheres._KERNEL_STATE["candidates"] = fn
                 got.append(fp.candidates(Q, plan))
             a, b = got
             assert len(a.states) > 100
@@ -548,7 +549,10 @@ def test_a_refused_call_of_the_built_pass_is_answered_by_the_jit(pr2_mobile, mon
     def refuses(*args):
         raise TypeError("No matching definition")
 
-    monkeypatch.setattr(spheres, "_KERNEL_STATE", {"fn": refuses, "why": None})
+    spheres.pass_kernel()                  # both functions loaded, then the pass refuses
+    state = dict(spheres._KERNEL_STATE)
+    state.update(candidates=refuses, why=None)
+    monkeypatch.setattr(spheres, "_KERNEL_STATE", state)
     Q, _ = random_motions(model, np.random.default_rng(3), 200, 0.1)
     with pytest.warns(UserWarning, match="refused a call"):
         got = w.check_batch(Q)
