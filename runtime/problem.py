@@ -225,7 +225,7 @@ class PlanningProblem:
                 "check the goal atoms and the actions that add them (`tmpc plan` on the domain "
                 "and problem shows the symbolic side alone)"), self.world.files)
 
-    def start_warm_up(self, rng: np.random.Generator) -> None:
+    def start_warm_up(self, rng: np.random.Generator, also=()) -> None:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
@@ -237,7 +237,8 @@ class PlanningProblem:
         0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on clutter pb_4, for
         1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3 interleaved runs).
         (The kinematics at two padded batch sizes were loaded here too, until the collision
-        checker's kinematics became a compiled loop of its own.)"""
+        checker's kinematics became a compiled loop of its own.) ``also``: more calls, after
+        the projectors (a planner's own set-up, ``warm_up_calls``)."""
         if self._warming is not None:
             return
         prepare_kernel()   # a machine's first run: the collision kernels build meanwhile
@@ -252,7 +253,7 @@ class PlanningProblem:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
         loads = [lambda f=f, a=a: np.asarray(f(starts, mode.obj_T, mode.obj_parent, a)[0])
                  for f, a in calls]
-        self._warming = _Loads(loads)
+        self._warming = _Loads(loads + list(also))
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so

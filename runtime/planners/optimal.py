@@ -261,13 +261,24 @@ class OptimalPlanner:
         return self.p.ground.goal.holds(mode.sym)
 
     # ---- task plans --------------------------------------------------------------------------
+    def warm_up_calls(self) -> list:
+        """Set-up a run makes beside its kernel loads (:meth:`PlanningProblem.start_warm_up`):
+        the SAT task planner (Z3's import and context, the encoding's first layers), which
+        the first task plan would otherwise build inside planning time."""
+        return [self._task_planner]
+
+    def _task_planner(self) -> TaskPlanner:
+        if self.tp is None:
+            self.tp = TaskPlanner(self.p.ground, geometric=True)
+        return self.tp
+
     def _new_task_plan(self, deadline: float) -> bool:
         """Learn from the last plan (exclusion, blockers) and ask for the next one; False when
         there is none (the graph keeps growing with the transitions known)."""
         t = time.perf_counter()
         try:
             if self.tp is None:
-                self.tp = TaskPlanner(self.p.ground, geometric=True)
+                self._task_planner()
             elif self.plan is not None:
                 self._learn()
             if self.plans_exhausted:

@@ -42,3 +42,24 @@ def test_an_error_in_a_load_is_raised_by_finish():
     loads = _Loads([bad, lambda: None])
     with pytest.raises(RuntimeError, match="no executable"):
         loads.finish()
+
+
+def test_the_optimal_planners_task_planner_is_built_by_the_warm_up(clutter_world):
+    """A run hands the warm-up the planner's own set-up (``warm_up_calls``): the optimal
+    planner's SAT task planner exists before planning starts, and the plan is the one a
+    planner building it inside planning finds (same seed)."""
+    import numpy as np
+
+    from tmpc.runtime.planners import make_planner
+    from tmpc.runtime.problem import PlanningProblem
+    problem = PlanningProblem(clutter_world)
+    warmed = make_planner("optimal", problem, 3, {"first_solution": True})
+    problem.start_warm_up(np.random.default_rng(0), warmed.warm_up_calls())
+    problem.warm_up(np.random.default_rng(0))
+    assert warmed.tp is not None
+    cold = make_planner("optimal", problem, 3, {"first_solution": True})
+    assert cold.tp is None
+    a, b = warmed.solve(60.0), cold.solve(60.0)
+    assert a.status == b.status == "solved"
+    assert [act for _, _, act in a.path] == [act for _, _, act in b.path]
+    assert all(np.array_equal(qa, qb) for (qa, _, _), (qb, _, _) in zip(a.path, b.path))
