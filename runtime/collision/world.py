@@ -179,6 +179,9 @@ class CollisionWorld:
         self._dyn_mgr.registerObjects([self.geoms[i].obj for i in self.dynamic])
         self._dyn_mgr.setup()
         self._req = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
+        #: whether two geometries touch, without a contact: the mesh test of a pair whose depth
+        #: comes from the convex hulls (:meth:`_depth`) needs no contact of its own
+        self._touch = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
         self._first_pass_enabled = first_pass
         self._first_pass = None
         #: exact queries and collisions found per geometry pair (:meth:`_confirm` asks a
@@ -432,10 +435,12 @@ class CollisionWorld:
         import fcl
         A, B = self.geoms[ga], self.geoms[gb]
         res = fcl.CollisionResult()
-        if not fcl.collide(A.obj, B.obj, self._req, res):
-            return None
         if A.hull is None and B.hull is None:
+            if not fcl.collide(A.obj, B.obj, self._req, res):
+                return None
             return abs(res.contacts[0].penetration_depth)
+        if not fcl.collide(A.obj, B.obj, self._touch, res):
+            return None
         res = fcl.CollisionResult()
         if not fcl.collide(A.narrow, B.narrow, self._req, res):
             return 0.0
