@@ -43,7 +43,7 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     t0 = time.perf_counter()
     prepare_kernel()         # a machine's first run: the collision kernels build meanwhile
     with _fewer_collections():
-        problem, algo, split = _set_up(input_path, planner, seed, overrides, setup_progress)
+        problem, algo, _ = _set_up(input_path, planner, seed, overrides, setup_progress)
     setup = time.perf_counter() - t0
     if on_solution is not None and hasattr(algo, "on_solution"):
         algo.on_solution = lambda result: on_solution(problem, result, setup)
@@ -81,7 +81,7 @@ def _set_up(input_path, planner, seed, overrides, setup_progress):
     # the planner's own set-up (the optimal planner's SAT task planner: importing Z3, its
     # context and encoding, 0.05-0.06 s) runs beside the kernel loads, not in planning time
     problem.start_warm_up(np.random.default_rng(seed),
-                          getattr(algo, "warm_up_calls", lambda: [])())
+                          getattr(algo, "warm_up_calls", list)())
     problem.check_goal_reachable()
     problem.check_start()
     split["problem"] = time.perf_counter() - t

@@ -30,7 +30,6 @@ import numpy as np
 from tmpc.compiler import aot
 from tmpc.compiler.aot import Kernel
 from tmpc.lang.world import Shape
-from tmpc.runtime.collision.batch import pad_batch
 from tmpc.runtime.collision.store import TABLE_FIELDS, FirstPassStore, mesh_key, robot_key
 
 if TYPE_CHECKING:
@@ -430,14 +429,14 @@ class FirstPass:
 #: pass; a test checks them against numba's typeof)
 PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("candidates",
-     "UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
-     "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
-     "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
-     "i8[::1], i8[::1], i8[::1], i8[::1])"),
+     ("UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
+      "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
+      "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
+      "i8[::1], i8[::1], i8[::1], i8[::1])")),
     ("kinematics",
-     "void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
-     "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
-     "f8[:,:,::1])")))
+     ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
+      "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
+      "f8[:,:,::1])"))))
 #: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
 #: JIT) and why the JIT (None: the built module)
 _KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}

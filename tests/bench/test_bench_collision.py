@@ -127,7 +127,7 @@ def test_pr2_clutter_collision_throughput():
           f"| time per state: pass (FK + balls + covers) | {t_pass * us:.1f} µs |\n"
           f"| FK per state at 16 / 128 / 1024 states a call, compiled loop | "
           + " / ".join(f"{v:.1f}" for v in fk_curve.values()) + " µs |\n"
-          f"| the same, the artifact's JAX kernel | "
+          "| the same, the artifact's JAX kernel | "
           + " / ".join(f"{v:.1f}" for v in jax_curve.values()) + " µs |\n"
           f"| time per state: fcl confirmation of candidates | {t_conf * us:.1f} µs |\n"
           f"| motion validation ({len(motions)} motions, {steps} steps) | "

@@ -17,10 +17,10 @@ ROBOTS = {
 #: (robot, spec): a fixed base placed off the origin and turned; the PR2 on a mobile base whose
 #: scene pose is turned too (the yaw offset and height the kinematics keeps)
 CASES = {
-    "panda": ("panda", dict(base_pose=Pose((0.3, -0.2, 0.1), (0.0, 0.0, 0.38268343, 0.92387953)))),
-    "pr2": ("pr2", dict(joint_values=(("torso_lift_joint", 0.1),))),
-    "pr2-mobile": ("pr2", dict(mobile_base=True,
-                               base_pose=Pose((0.0, 0.0, 0.05), (0.0, 0.0, 0.2588190, 0.9659258)))),
+    "panda": ("panda", {"base_pose": Pose((0.3, -0.2, 0.1), (0.0, 0.0, 0.38268343, 0.92387953))}),
+    "pr2": ("pr2", {"joint_values": (("torso_lift_joint", 0.1),)}),
+    "pr2-mobile": ("pr2", {"mobile_base": True,
+                           "base_pose": Pose((0.0, 0.0, 0.05), (0.0, 0.0, 0.2588190, 0.9659258))}),
 }
 
 
@@ -43,7 +43,7 @@ def _states(model, rng, n):
 
 def test_equals_the_jax_kinematics_at_every_batch_size(case):
     from tmpc.runtime.collision.kinematics import Kinematics
-    tree, model, jax_fk = case
+    _, model, jax_fk = case
     fk = Kinematics(model)
     rng = np.random.default_rng(5)
     for n in (1, 3, 16, 128, 300):
