@@ -9,8 +9,8 @@ same njit functions for one explicit signature into an extension module that nee
 to import (~1 ms, ~1 MB).
 
 How: :func:`obtain` returns the module of a :class:`Kernel` from the cache folder (``aot/``),
-named by a digest of the kernel's source file, its exports' signatures and the numba, numpy and Python
-versions, so a changed kernel builds anew. Without one it builds it in a child process
+named by a digest of the kernel's source file, its exports' signatures and the numba, numpy
+and Python versions, so a changed kernel builds anew. Without one it builds it in a child process
 (``python -m tmpc.compiler.aot``: numba, a C compiler and Python's headers, ~5 s) into a
 temporary folder and renames the module into place, so concurrent runs never load a partial
 file. :func:`prepare` starts that build early, to overlap a run's other setup. When the build
@@ -105,8 +105,8 @@ def prepare(kernel: Kernel) -> None:
     kernel.path().parent.mkdir(parents=True, exist_ok=True)
     _BUILDS[kernel] = subprocess.Popen(
         [sys.executable, "-m", "tmpc.compiler.aot", kernel.module,
-         *(x for pair in kernel.exports for x in pair)], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE, text=True)
+         *(x for pair in kernel.exports for x in pair)],
+        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
 def obtain(kernel: Kernel):

@@ -229,16 +229,16 @@ class PlanningProblem:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
-        projectors not yet begun on this thread too (:class:`_Loads`). Never more than two executables load at once: three at once
-        set the run's peak memory (tmit-star clutter pb_4, warm: 392-415 MiB with two
-        background threads, 380-381 MiB with one, measured 2026-12-03). This thread used to
-        wait for the background thread alone: 1.82-1.97 s of warm setup on tmit-star's
-        shelves pb_2 (five projectors) against 1.24-1.40 s now, 1.34-1.45 s against
-        0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on clutter pb_4, for
-        1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3 interleaved runs).
-        (The kinematics at two padded batch sizes were loaded here too, until the collision
-        checker's kinematics became a compiled loop of its own.) ``also``: more calls, after
-        the projectors (a planner's own set-up, ``warm_up_calls``)."""
+        projectors not yet begun on this thread too (:class:`_Loads`). Never more than two
+        executables load at once: three at once set the run's peak memory (tmit-star clutter
+        pb_4, warm: 392-415 MiB with two background threads, 380-381 MiB with one, measured
+        2026-12-03). This thread used to wait for the background thread alone: 1.82-1.97 s of
+        warm setup on tmit-star's shelves pb_2 (five projectors) against 1.24-1.40 s now,
+        1.34-1.45 s against 0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on
+        clutter pb_4, for 1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3
+        interleaved runs). (The kinematics at two padded batch sizes were loaded here too, until
+        the collision checker's kinematics became a compiled loop of its own.) ``also``: more
+        calls, after the projectors (a planner's own set-up, ``warm_up_calls``)."""
         if self._warming is not None:
             return
         prepare_kernel()   # a machine's first run: the collision kernels build meanwhile
@@ -256,9 +256,9 @@ class PlanningProblem:
         self._warming = _Loads(loads + list(also))
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
-        """Load (or, without an artifact, trace and compile) what planning will call, so
-        planning time is planning: every action schema's projector at the projection batch
-        shape, the goal's, and the collision checker's compiled kernels. Returns the seconds spent here,
+        """Load (or, without an artifact, trace and compile) what planning will call, so planning
+        time is planning: every action schema's projector at the projection batch shape, the
+        goal's, and the collision checker's compiled kernels. Returns the seconds spent here,
         waiting included (also in ``compile``). ``progress(phase, done, total, detail)`` hears
         how many of the calls are done."""
         t = time.perf_counter()
