@@ -870,8 +870,10 @@ def _matrix4(T, what: str) -> np.ndarray:
 
 def collision_world(world, compiled, tolerance: float = 0.0) -> CollisionWorld:
     """The collision checker of a loaded world (``compiled``: its
-    :class:`~tmpc.compiler.compile.CompiledProgram`, for the forward kinematics). Every link mesh
-    must load here (E562 names a missing one); kinematics alone does not need them."""
+    :class:`~tmpc.compiler.compile.CompiledProgram`; without a robot model, no robot). Its
+    kinematics is the compiled loop (:class:`~tmpc.runtime.collision.kinematics.Kinematics`).
+    Every link mesh must load here (E562 names a missing one); kinematics alone does not need
+    them."""
     model = robot_model(world.scene, strict_meshes=True) if compiled.model is not None else None
     return CollisionWorld(world.scene, model, tolerance=tolerance,
                           allowed=world.allowed_pairs())
