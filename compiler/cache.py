@@ -52,7 +52,8 @@ PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
          "collision": "collision meshes, sphere covers and pair tables of robots",
          "robots": "parsed URDFs",
          "jax": "XLA's persistent compilation cache",
-         "aot": "the collision pass compiled ahead of time for this machine (or why it failed)",
+         "aot": ("the collision checker's kinematics and first pass compiled ahead of time for "
+                 "this machine (or why the build failed)"),
          "numba": "numba's machine code (A*'s LM-cut; the collision pass without `aot`)"}
 
 
