@@ -192,6 +192,17 @@ def _prune(steps: list[_Step], wanted: set[int]) -> list[_Step]:
     return [st for st in steps if st.child in keep]
 
 
+def _root(model: RobotModel) -> tuple[int, np.ndarray, np.ndarray, float]:
+    """The root frame's index, the scene's base pose (4, 4), and for a mobile base its tilt and
+    height. A mobile base's q = (x, y, yaw) is its absolute planar pose; the scene base pose's
+    height and any tilt (rotation other than yaw) stay fixed: T = Trans(x, y, z0) Rz(yaw) R_tilt."""
+    base = pose_matrix(model.base_pose)
+    yaw0 = base_yaw(model.base_pose)
+    c0, s0 = math.cos(yaw0), math.sin(yaw0)
+    tilt = np.array([[c0, s0, 0.0], [-s0, c0, 0.0], [0.0, 0.0, 1.0]]) @ base[:3, :3]
+    return model.frames.index(model.tree.root), base, tilt, float(base[2, 3])
+
+
 def make_fk(model: RobotModel, only=None):
     """``fk(q: (..., n)) -> Frames`` of every frame in ``model.frames`` (any leading batch
     shape; not jitted: wrap with ``jax.jit`` as needed).
@@ -204,16 +215,8 @@ def make_fk(model: RobotModel, only=None):
     steps = _program(model)
     if only is not None:
         steps = _prune(steps, set(only))
-    base = pose_matrix(model.base_pose)
-    root = model.frames.index(model.tree.root)
+    root, base, tilt, z0 = _root(model)
     n_frames = len(model.frames)
-
-    # A mobile base's q = (x, y, yaw) is its absolute planar pose; the scene base pose's height
-    # and any tilt (rotation other than yaw) stay fixed: T = Trans(x, y, z0) Rz(yaw) R_tilt.
-    yaw0 = base_yaw(model.base_pose)
-    c0, s0 = math.cos(yaw0), math.sin(yaw0)
-    tilt = np.array([[c0, s0, 0.0], [-s0, c0, 0.0], [0.0, 0.0, 1.0]]) @ base[:3, :3]
-    z0 = base[2, 3]
 
     def root_frame(q):
         batch = q.shape[:-1]
@@ -282,7 +285,6 @@ class FkTables(NamedTuple):
     tilt: np.ndarray         # (3, 3)
     z0: float
     missing: np.ndarray      # (M,) int64
-    n_frames: int
 
 
 _KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2}
@@ -291,11 +293,8 @@ _KINDS = {"fixed": 0, "revolute": 1, "prismatic": 2}
 def fk_tables(model: RobotModel) -> FkTables:
     """:class:`FkTables` of a model (the same program and numbers as :func:`make_fk`)."""
     steps = _program(model)
-    base = pose_matrix(model.base_pose)
-    root = model.frames.index(model.tree.root)
+    root, base, tilt, z0 = _root(model)
     child = np.array([st.child for st in steps], np.int64).reshape(-1)
-    c0, s0 = math.cos(base_yaw(model.base_pose)), math.sin(base_yaw(model.base_pose))
-    tilt = np.array([[c0, s0, 0.0], [-s0, c0, 0.0], [0.0, 0.0, 1.0]]) @ base[:3, :3]
 
     def rows(values, shape, dtype=float):
         return np.ascontiguousarray(np.array(values, dtype).reshape((len(steps),) + shape))
@@ -309,18 +308,18 @@ def fk_tables(model: RobotModel) -> FkTables:
         rows([st.source for st in steps], (), np.int64),
         rows([st.scale for st in steps], ()), rows([st.offset for st in steps], ()),
         root, bool(model.mobile_base), np.ascontiguousarray(base[:3, :3]),
-        np.ascontiguousarray(base[:3, 3]), np.ascontiguousarray(tilt), float(base[2, 3]),
+        np.ascontiguousarray(base[:3, 3]), np.ascontiguousarray(tilt), z0,
         np.array(sorted(set(range(len(model.frames))) - set(child.tolist()) - {root}),
-                 np.int64).reshape(-1),
-        len(model.frames))
+                 np.int64).reshape(-1))
 
 
 def make_fk_frames(model: RobotModel):
     """``frames(Q: (B, n)) -> (R (F, 3, 3, B), p (F, 3, B))``: :func:`make_fk` of a batch,
-    batch-last. The collision checker's kinematics: its numpy stages select the frames they need
-    as contiguous rows and run over states along the last axis (measured 8x faster than
-    gathering from batch-first arrays); selecting there rather than in the kernel keeps one
-    kernel per batch size whatever the set of frames (objects held change it)."""
+    batch-last, the layout of the collision checker's kinematics (its numpy stages select the
+    frames they need as contiguous rows and run over states along the last axis: measured 8x
+    faster than gathering from batch-first arrays). The checker itself runs the same program
+    as a compiled loop (:func:`fk_tables`, :mod:`tmpc.runtime.collision.kinematics`); this
+    JAX version is the artifact's ``fk/frames`` and the tests' reference."""
     jnp = configured().numpy
     fk = make_fk(model)
 

@@ -19,9 +19,9 @@ not in the scene, a symbolic goal unreachable even in the delete relaxation — 
 
 from __future__ import annotations
 
-import time
 import collections
 import threading
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -169,7 +169,7 @@ class PlanningProblem:
         self._goal = None
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
-        self._warming: list | None = None      # the background warm-up's futures
+        self._warming: _Loads | None = None    # the warm-up's kernel loads, once begun
         #: how the collision first pass runs (:meth:`warm_up` says), None before / without one
         self.collision_pass: str | None = None
 

@@ -43,7 +43,7 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     t0 = time.perf_counter()
     prepare_kernel()         # a machine's first run: the collision kernels build meanwhile
     with _fewer_collections():
-        problem, algo, _ = _set_up(input_path, planner, seed, overrides, setup_progress)
+        problem, algo = _set_up(input_path, planner, seed, overrides, setup_progress)
     setup = time.perf_counter() - t0
     if on_solution is not None and hasattr(algo, "on_solution"):
         algo.on_solution = lambda result: on_solution(problem, result, setup)
@@ -67,7 +67,7 @@ def _fewer_collections():
 
 
 def _set_up(input_path, planner, seed, overrides, setup_progress):
-    """:func:`plan_problem`'s setup: (problem, planner, split)."""
+    """:func:`plan_problem`'s setup: (problem, planner); the split in ``problem.setup``."""
     split: dict = {}
     if isinstance(input_path, World):
         world = input_path
@@ -96,4 +96,4 @@ def _set_up(input_path, planner, seed, overrides, setup_progress):
     if setup_progress is not None:
         setup_progress("planning", 0, 0, "")
     problem.setup = split
-    return problem, algo, split
+    return problem, algo

@@ -27,13 +27,13 @@ class Kinematics:
 
     def __init__(self, model: RobotModel):
         self.tables = fk_tables(model)
-        self.dof = len(model.q_names)
+        self.dof, self.n_frames = len(model.q_names), len(model.frames)
 
     def __call__(self, Q) -> tuple[np.ndarray, np.ndarray]:
         Q = np.ascontiguousarray(np.asarray(Q, float).reshape(-1, self.dof))
-        F, B = self.tables.n_frames, len(Q)
+        F, B = self.n_frames, len(Q)
         R, p = np.empty((F, 3, 3, B)), np.empty((F, 3, B))
-        args = (Q, *self.tables[:-1], R, p)
+        args = (Q, *self.tables, R, p)
         try:
             pass_kernel("kinematics")(*args)
         except TypeError as exc:        # the built module refused (see spheres._fall_back)
