@@ -14,9 +14,14 @@ candidate pair is confirmed free by fcl: the pass never turns a colliding state 
 (radii carry a relative and absolute slack of 1e-9 against rounding). tests/runtime/test_collision.py
 checks this against exact fcl on thousands of random states.
 
-The pass runs in two steps: JAX computes the forward kinematics of a whole batch, then one
-compiled call (:mod:`~tmpc.runtime.collision.pass_kernel`, numba) runs the tests of every pair
-state by state: bounding balls and boxes (``coarse``), then the covers of the pairs that survive.
+A pair the covers leave then meets the convex stage (:func:`hull_points`): a geometry lies in
+the convex hull of its points (a mesh's hull vertices, a box's corners, a prism around a
+cylinder, a sphere's center grown by its radius), so two geometries whose hulls a plane
+separates cannot touch.
+
+The pass runs in two steps: the compiled kinematics of a whole batch, then one compiled call
+(:mod:`~tmpc.runtime.collision.pass_kernel`, numba) runs the tests of every pair state by state:
+bounding balls and boxes (``coarse``), the covers of the pairs that survive, then their hulls.
 """
 
 from __future__ import annotations
@@ -193,6 +198,91 @@ def box(shape: Shape, aabb_center, aabb_half) -> tuple[np.ndarray, np.ndarray, f
     return np.asarray(aabb_center, float), _inflate(aabb_half), 0.0
 
 
+#: a mesh whose convex hull has more vertices than this gets no convex stage (its support
+#: function, a pass over the vertices, would cost more than the fcl query it saves)
+HULL_POINTS_MAX = 512
+#: sides of the prism around a cylinder (the convex stage)
+_PRISM_SIDES = 12
+
+
+def hull_points(shape: Shape, mesh: "MeshData | None",
+                store=None) -> tuple[np.ndarray, np.ndarray, float]:
+    """The convex stage's view of a geometry (its frame): ``(points, every, r)``. The geometry
+    lies in the hull of ``every`` (None: of ``points``) grown by radius r, and GJK runs on the
+    hull of ``points`` grown by r, that same set; a separation it finds is checked on
+    ``every``. A box: its corners; a sphere: its center and radius; a cylinder: a prism around
+    it; a mesh: its convex hull's vertices, ``every`` None when no mesh vertex lies more than
+    :data:`HULL_TRUST` outside a facet plane of the hull (:func:`_hull_outside`; r is then that
+    distance), else every vertex of the mesh. No points: no convex stage. ``store``: a
+    :class:`~tmpc.runtime.collision.store.FirstPassStore` keeping the mesh check between runs."""
+    if shape.kind == "sphere":
+        pts, r = np.zeros((1, 3)), float(_inflate(shape.radius))
+    elif shape.kind == "box":
+        h = _inflate(np.asarray(shape.size, float))
+        pts, r = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * h, 0.0
+    elif shape.kind == "cylinder":
+        a = 2 * np.pi * np.arange(_PRISM_SIDES) / _PRISM_SIDES
+        rho = float(_inflate(shape.radius)) / np.cos(np.pi / _PRISM_SIDES)
+        ring = np.stack([rho * np.cos(a), rho * np.sin(a)], 1)
+        z = float(_inflate(shape.length / 2))
+        pts = np.concatenate([np.c_[ring, np.full(len(a), -z)], np.c_[ring, np.full(len(a), z)]])
+        r = 0.0
+    elif mesh is None or len(mesh.hull_vertices) > HULL_POINTS_MAX:
+        return np.zeros((0, 3)), None, 0.0
+    else:
+        H = np.asarray(mesh.hull_vertices, float)
+        out = _stored_outside(mesh, store)
+        if out <= HULL_TRUST:
+            return H, None, float(_inflate(max(out, 0.0)))
+        return H, np.asarray(mesh.vertices, float), 0.0
+    return pts, None, r
+
+
+#: a mesh's hull is trusted to hold its vertices when none is farther than this (m) outside a
+#: facet plane (qhull's hulls: ~1e-16). A point within t of every facet plane is within t of
+#: the hull except near a vertex where facets meet at a needle angle (t / sin(half that
+#: angle)): reaching the stage's 1e-6 m gap from 1e-12 takes an angle under 1e-4 degrees.
+HULL_TRUST = 1e-12
+
+
+def _hull_outside(mesh: "MeshData") -> float:
+    """How far the mesh's farthest vertex lies outside a facet plane of its convex hull (<= 0:
+    inside every one)."""
+    H, HF, V = mesh.hull_vertices, mesh.hull_faces, np.asarray(mesh.vertices, float)
+    a, b, c = H[HF[:, 0]], H[HF[:, 1]], H[HF[:, 2]]
+    n = np.cross(b - a, c - a)
+    size = np.linalg.norm(n, axis=1)
+    keep = size > 0
+    n = n[keep] / size[keep, None]
+    o = (n * a[keep]).sum(1)
+    flip = n @ H.mean(0) > o                       # outward: the centroid is inside
+    n[flip], o[flip] = -n[flip], -o[flip]
+    worst = -np.inf
+    for i in range(0, len(V), 1024):
+        worst = max(worst, float((V[i:i + 1024] @ n.T - o).max(initial=-np.inf)))
+    return worst
+
+
+def _stored_outside(mesh: "MeshData", store) -> float:
+    if store is None:
+        return _hull_outside(mesh)
+    name = "outside/" + mesh_key(mesh.vertices, mesh.faces)
+    got = store.get(name)
+    if got is None:
+        out = _hull_outside(mesh)
+        store.put(name, {"d": np.array(out)})
+        return out
+    return float(got["d"])
+
+
+def _ragged(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Point sets as one (P, 3) array and their starts (len(parts) + 1,)."""
+    start = np.zeros(len(parts) + 1, np.int64)
+    start[1:] = np.cumsum([len(x) for x in parts])
+    flat = np.concatenate(parts) if parts else np.zeros((0, 3))
+    return np.ascontiguousarray(flat.reshape(-1, 3), dtype=float), start
+
+
 # ---------------------------------------------------------------------------------------------
 # the pass
 
@@ -232,6 +322,11 @@ class Plan:
     box_half: np.ndarray         # (W, 3) half-extents of each obstacle's world AABB
     ff: np.ndarray               # (F, 2)
     tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
+    hull_p: np.ndarray           # (P, 3) convex stage: hull points, moving (frame coordinates)
+    hull_s: np.ndarray           # (M + W + 1,) then obstacles (world); geometry i's are
+    all_p: np.ndarray            # (V, 3)  hull_p[hull_s[i]:hull_s[i + 1]], every point of it
+    all_s: np.ndarray            # (M + W + 1,) all_p[all_s[i]:all_s[i + 1]] (hull_points)
+    hull_r: np.ndarray           # (M + W,) rounding radius
 
 
 @dataclass
@@ -245,11 +340,12 @@ class Candidates:
     R: np.ndarray
     p: np.ndarray
     coarse: int                  # pairs left after the bounding-ball stage
+    covers: int = 0              # pairs left after the covers (then the convex stage)
 
     def take(self, rows: np.ndarray) -> "Candidates":
         """These candidates, only (and in the order of) ``rows``."""
         return Candidates(self.states[rows], self.ga[rows], self.gb[rows], self.R, self.p,
-                          self.coarse)
+                          self.coarse, self.covers)
 
 
 class FirstPass:
@@ -267,6 +363,7 @@ class FirstPass:
             k = seen[g.body] = seen.get(g.body, -1) + 1
             self._gname.append(f"{world.bodies[g.body].name}#{k}")
         self.balls = [ball(g.shape, g.mesh, self.store) for g in world.geoms]
+        self.hulls = [hull_points(g.shape, g.mesh, self.store) for g in world.geoms]
         self.K = max([len(c[1]) for c in self.covers] + [1])
         self._plans: dict = {}
         self._tables: dict = {}
@@ -339,6 +436,10 @@ class FirstPass:
         box_R, box_t, box_h, box_r = arr
         box_half = (np.abs(box_R) @ box_h[..., None])[..., 0] + box_r[:, None]
         ncov = np.array([len(self.covers[g][1]) for g in mv], np.int64)
+        convex = [self._placed_hull(int(g), L) for g, L in zip(mv, lm)] + \
+            [self._placed_hull(int(g), world_T[int(g)]) for g in box_geom]
+        hull_p, hull_s = _ragged([h[0] for h in convex])
+        all_p, all_s = _ragged([h[1] for h in convex])
         return Plan(used=used, mv=mv.astype(np.int64),
                     fpos=np.searchsorted(used, gframe[moving]), local=lm, ball_c=ball_c,
                     ball_r=ball_r, obb_c=obb_c.reshape(-1, 3),
@@ -347,7 +448,14 @@ class FirstPass:
                     table_of=table_of, bb_m=bb_m, bb_start=bb_start,
                     box_geom=box_geom.astype(np.int64), box_R=box_R, box_t=box_t, box_h=box_h,
                     box_r=box_r, box_half=box_half.reshape(-1, 3), ff=pairs[~ma & ~mb],
-                    tables=tables)
+                    tables=tables, hull_p=hull_p, hull_s=hull_s, all_p=all_p, all_s=all_s,
+                    hull_r=np.array([h[2] for h in convex], float))
+
+    def _placed_hull(self, g: int, T: np.ndarray):
+        """Geometry g's :func:`hull_points` placed by T (its frame's or the world's)."""
+        fast, every, r = self.hulls[g]
+        R, t = T[:3, :3], T[:3, 3]
+        return fast @ R.T + t, np.zeros((0, 3)) if every is None else every @ R.T + t, r
 
     def _table(self, ga: int, gb: int) -> "PairTable | None":
         """The pair table of two robot link geometries (None for held objects, whose placement
@@ -386,7 +494,8 @@ class FirstPass:
         pass_kernel()(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1),
                       f, np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)),
                       i, np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
-                      np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(), i.copy())
+                      np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, e3, i, e3, i,
+                      np.zeros(0), i, i.copy(), i.copy())
         return _KERNEL_STATE["why"]
 
     def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
@@ -407,19 +516,20 @@ class FirstPass:
             args = (R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R,
                     plan.obb_h, plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free,
                     plan.bb_start, plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r,
-                    plan.box_half, plan.mv, plan.box_geom, *out)
+                    plan.box_half, plan.mv, plan.box_geom, plan.hull_p, plan.hull_s,
+                    plan.all_p, plan.all_s, plan.hull_r, *out)
             try:
-                got, coarse = kernel(*args)
+                got, coarse, covers = kernel(*args)
             except TypeError as exc:
                 # the module built ahead of time takes its one signature only: arguments of
                 # another type or layout (none known; a test pins the pass's) go to the JIT
                 kernel = _fall_back(exc, "candidates")
-                got, coarse = kernel(*args)
+                got, coarse, covers = kernel(*args)
             if got >= 0:
                 break
             cap *= 4
         s, a, b = (o[:got] for o in out)
-        return Candidates(s, a, b, R, p, coarse)
+        return Candidates(s, a, b, R, p, coarse, covers)
 
 
 #: the collision checker's compiled loops built ahead of time, in one module:
@@ -429,10 +539,10 @@ class FirstPass:
 #: pass; a test checks them against numba's typeof)
 PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("candidates",
-     ("UniTuple(i8, 2)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
+     ("UniTuple(i8, 3)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
       "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
       "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
-      "i8[::1], i8[::1], i8[::1], i8[::1])")),
+      "i8[::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], f8[::1], i8[::1], i8[::1], i8[::1])")),
     ("kinematics",
      ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
       "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "

@@ -80,6 +80,7 @@ class PassStats:
 
     states: int = 0
     coarse_pairs: int = 0
+    cover_pairs: int = 0         # left after the covers, before the convex stage
     fine_pairs: int = 0
     settled: int = 0             # states with no candidate pair left: free without fcl
     colliding: int = 0
@@ -88,6 +89,7 @@ class PassStats:
     def add(self, n: int, cand, bad) -> None:
         self.states += n
         self.coarse_pairs += cand.coarse
+        self.cover_pairs += cand.covers
         self.fine_pairs += len(cand.states)
         self.settled += n - len(np.unique(cand.states))
         self.colliding += len(bad)

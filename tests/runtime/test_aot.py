@@ -93,7 +93,7 @@ def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
     assert kernel(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1), f,
                   np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)), i,
                   np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
-                  np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, i, i.copy(),
-                  i.copy()) == (0, 0)
+                  np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, e3, i, e3, i,
+                  np.zeros(0), i, i.copy(), i.copy()) == (0, 0, 0)
     with pytest.raises(TypeError):             # the JIT refusing too is a real error
         spheres._fall_back(TypeError("again"))
