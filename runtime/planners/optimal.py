@@ -17,7 +17,8 @@ prefix.
 **The graph.** Vertices are ``(q, mode)``. Per batch, each reachable mode (modes reached in this
 batch first, as tmit-star's frontier) gets ``batch_size`` uniform collision-free samples. For
 every new sample and every transition of the mode's symbolic state with budget left (fewer than
-5 successes and fewer than the batch's cap, which starts at 1 and grows by 1 per batch), the
+5 successes, a cap that grows by 5 every ``cap_growth`` batches while there is no solution,
+and fewer than the batch's cap, which starts at 1 and grows by 1 per batch), the
 precondition's distance is evaluated (the projector at 0 iterations: batched). Only samples
 closer than the mode's PRM* connection radius are projected (from the sample itself). A success
 adds a *transition vertex* in the mode and a *bridge vertex* at the same configuration in the
@@ -48,11 +49,13 @@ become graph edges, so every reported plan is a path of the graph.
 Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
 declares ``blocked_steps`` and never reads it); each mode's entries are joined to its exits and
-half of its samples are drawn around them (``portals``, ``corridor``); every new portal vertex
+half of its samples are drawn around them (``portals``, ``corridor``; a mode entered but not
+yet left: a tenth around its entries, ``entry_share``); every new portal vertex
 gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`); edges are
 checked in batches, coarse first, a found path's at the full resolution (``coarse``); the
 search before a first solution is inflated (``inflation``) and a search gives up after
-``search_budget`` edge checks until the next batch; anytime runs shortcut their
+``search_budget`` edge checks until the next batch; the absolute cap grows while there is no
+solution (``cap_growth``: tmit-star's never does); anytime runs shortcut their
 solutions and start from the unified planner's plan (``shortcut_*``, ``seed_unified``).
 """
 
@@ -90,6 +93,8 @@ class OptimalOptions:
     portals: bool = True               # join each mode's entries to its exits (tmpc's addition)
     corridor: float = 0.5              # share of samples around entry-exit segments (tmpc's)
     corridor_sigma: float = 0.05       # their noise, as a fraction of each coordinate's range
+    #: a mode with entries but no exit yet: this share of samples around its entries (tmpc's)
+    entry_share: float = 0.1
     search_budget: int = 3000          # edges one search may check before it waits for a batch
     escape_tries: int = 16             # short motions tried out of each new portal (tmpc's; 0: off)
     escape_rounds: int = 2             # ... and again out of the free ends kept
@@ -102,6 +107,9 @@ class OptimalOptions:
     shortcut_points: int = 16          # ... between points cutting its edges into this many pieces
     shortcut_rounds: int = 3           # ... and again on the shortened segment
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
+    #: > 0: with no solution yet, the absolute cap grows by its first value every this many
+    #: batches (tmpc's; tmit-star's caps never grow)
+    cap_growth: int = 10
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
     until_converged: bool = False
@@ -177,6 +185,7 @@ class OptimalPlanner:
         self.batch = 0
         self.batch_budget = options.batch_budget
         self.cap = 0
+        self.absolute_cap = options.absolute_cap
         self.queue: deque[int] = deque()
         self.frontier: list[int] = []
         self.sampled: set[int] = set()
@@ -333,6 +342,9 @@ class OptimalPlanner:
         self.counts["batches"] += 1
         self.batch_budget -= 1
         self.cap += self.opt.cap_increment
+        if self.opt.cap_growth and self.best_path is None and \
+                self.batch % self.opt.cap_growth == 0:
+            self.absolute_cap += self.opt.absolute_cap
         self.sampled = set()
         self.queue = deque(self.reachable)
         self.frontier = []
@@ -369,12 +381,15 @@ class OptimalPlanner:
         p = self.p
         got, tries = [], 0
         portals = self._portals_of(mode.id) if self.opt.corridor > 0 else None
+        share = self.opt.corridor
+        if portals is not None and portals[0] is portals[1]:
+            share = self.opt.entry_share              # entries only: no exit yet
         while sum(len(g) for g in got) < n and tries < 50:
             tries += 1
             t = time.perf_counter()
             Q = p.uniform(self.rng, 2 * n)
             if portals is not None:
-                k = int(round(len(Q) * self.opt.corridor))
+                k = int(round(len(Q) * share))
                 a = portals[0][self.rng.integers(len(portals[0]), size=k)]
                 b = portals[1][self.rng.integers(len(portals[1]), size=k)]
                 # a third at the entry, a third at the exit, a third along the segment; noise
@@ -391,9 +406,17 @@ class OptimalPlanner:
         return np.concatenate(got)[:n] if got else np.zeros((0, self.dim))
 
     def _portals_of(self, mid: int):
-        """(entry configurations, exit configurations) of a mode, or None if it has no exit."""
+        """(entry configurations, exit configurations) of a mode; a mode with no exit yet has
+        its entries for both (its samples near them: the way out of a grasp), the start mode
+        with none: None."""
         got = self._portals().get(mid)
-        return None if got is None else (self.Q[got[0]], self.Q[got[1]])
+        if got is not None:
+            return self.Q[got[0]], self.Q[got[1]]
+        entries = [b for b, _ in self.bridge.values() if self.node_mode[b] == mid]
+        if not entries:
+            return None
+        at = self.Q[entries]
+        return at, at
 
     def _sample_mode(self, mode: Mode) -> bool:
         """A batch of samples in ``mode`` and the transitions they reach; True if a goal mode
@@ -451,11 +474,11 @@ class OptimalPlanner:
         absolute cap. With ``mode_caps`` the caps count the successes from ``mode`` (and all
         of them stay under ``mode_caps`` times the absolute cap), so the budget a transition
         spent in modes that lead nowhere does not starve it in the others."""
-        cap = min(self.opt.absolute_cap, self.cap)
+        cap = min(self.absolute_cap, self.cap)
         if not self.opt.mode_caps or mode is None:
             return tr.successes < cap
         return tr.by_mode.get(mode.id, 0) < cap and \
-            tr.successes < self.opt.mode_caps * self.opt.absolute_cap
+            tr.successes < self.opt.mode_caps * self.absolute_cap
 
     def _succeed(self, tr: Transition, mode: Mode, vertex: int | None, q: np.ndarray) -> bool:
         tr.count(mode.id)

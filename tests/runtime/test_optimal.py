@@ -137,6 +137,52 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
                                   poses=m.poses, attached=m.held, details=False).valid
 
 
+def test_a_mode_with_no_exit_yet_samples_near_its_entries(clutter_problem_1):
+    """A mode entered (a grasp) but not yet left gets a share of its samples around its
+    entries (``entry_share``): the robot's way out of a grasp is short motions that uniform
+    samples, 1-3 rad away in 23 dimensions, do not give (tmit-star's clutter pb_4, seed 10,
+    was unsolved in 120 s: 7 of ~1,000 vertices of its grasp modes reachable)."""
+    p = clutter_problem_1
+    planner, result = _solve(p, 0, first_solution=True)
+    portals = planner._portals()
+    exitless = [m for m in planner.modes if m.id not in portals
+                and any(planner.node_mode[b] == m.id for b, _ in planner.bridge.values())]
+    assert result.status == "solved" and exitless
+    mode = exitless[0]
+    entries, same = planner._portals_of(mode.id)
+    assert same is entries and len(entries)
+    span = np.where(p.wraps, 2 * np.pi, p.upper - p.lower)
+
+    def near(share: float) -> int:
+        planner.opt = OptimalOptions(**{**planner.opt.__dict__, "entry_share": share})
+        Q = planner._uniform_valid(mode, 100)
+        dev = np.abs(p.difference(Q[:, None], entries[None]) / span).max(2).min(1)
+        return int((dev < 0.2).sum())
+
+    assert near(0.0) == 0 and near(0.1) >= 5
+
+
+def test_the_absolute_cap_grows_while_there_is_no_solution(clutter_problem_1):
+    """tmit-star's absolute cap (5 successes per transition, ever) makes the planner give up
+    on a transition whose 5 successes all led into dead ends; without a solution the cap
+    grows by 5 every ``cap_growth`` batches, and stops growing once there is one."""
+    planner = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(cap_growth=2))
+    tr = Transition(0, None, 0, successes=5)
+    caps = []
+    for _ in range(6):
+        planner._new_batch()
+        caps.append(planner.absolute_cap)
+    assert caps == [5, 10, 10, 15, 15, 20] and planner._budget(tr)
+    planner.best_path = [0]
+    for _ in range(4):
+        planner._new_batch()
+    assert planner.absolute_cap == 20
+    fixed = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(cap_growth=0))
+    for _ in range(8):
+        fixed._new_batch()
+    assert fixed.absolute_cap == 5 and not fixed._budget(tr)
+
+
 def _composite(problem, states) -> float:
     """tmit-star's composite length (../shared/baselines/tmit-star/cost.py), recomputed here
     from the plan's states: joints L2 + base xy + yaw the short way; unlike cost.py,
