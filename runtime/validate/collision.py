@@ -16,8 +16,13 @@ What counts as a collision is the contract of docs/collision.md, implemented aga
   without geometry stands for the links with geometry rigidly joined to it);
 * a contact counts when its penetration depth exceeds the tolerance (plus 1e-9 m): for two
   primitives fcl's depth; when a mesh is involved, whether the pair touches is decided on the
-  meshes (BVH) and the depth is EPA's between the convex hulls (an upper bound, exact for convex
-  meshes), because fcl's per-triangle depths are meaningless for mesh pairs.
+  meshes (BVH) and the depth is the penetration depth of the convex hulls (an upper bound, exact
+  for convex meshes), because fcl's per-triangle depths are meaningless for mesh pairs. fcl's
+  (libccd's) EPA estimates it; an estimate above the tolerance is confirmed with the exact depth
+  when both shapes are polytopes (:func:`_polytope_depth`): EPA overestimated it by up to 2.2x
+  in 1% of 3,000 contacts near the tolerance on tmit-star's clutter (never under it), and a
+  validator trusting it rejected a planner's valid motion (a held stick brushing another:
+  EPA 0.036 m, exact 0.026 m, tolerance 0.029 m).
 
 Before fcl, a numpy broad phase drops pairs whose world axis-aligned boxes do not overlap.
 """
@@ -43,6 +48,8 @@ class _Geom:
     hull: object | None        # fcl.CollisionObject of the convex hull (meshes)
     c: np.ndarray              # local AABB center / half extents
     h: np.ndarray
+    pts: np.ndarray | None = None      # a polytope's vertices (a box's corners, a mesh's hull's)
+    T: np.ndarray | None = None        # its world transform where :meth:`collisions` set it
 
 
 _MESHES: dict = {}
@@ -62,17 +69,18 @@ def load_mesh(path: Path, scale) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
 
 
 def _fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0, 1.0, 1.0)):
-    """(fcl geometry, hull geometry or None, AABB center, AABB half extents); ``size`` is the
-    box's full extents."""
+    """(fcl geometry, hull geometry or None, AABB center, AABB half extents, polytope vertices
+    or None); ``size`` is the box's full extents."""
     import fcl
     if kind == "box":
         s = np.asarray(size, float)
-        return fcl.Box(*s), None, np.zeros(3), s / 2
+        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s / 2
+        return fcl.Box(*s), None, np.zeros(3), s / 2, corners
     if kind == "sphere":
-        return fcl.Sphere(radius), None, np.zeros(3), np.full(3, radius)
+        return fcl.Sphere(radius), None, np.zeros(3), np.full(3, radius), None
     if kind == "cylinder":
         return fcl.Cylinder(radius, length), None, np.zeros(3), np.array([radius, radius,
-                                                                          length / 2])
+                                                                          length / 2]), None
     v, f, hv, hf = load_mesh(path, scale)
     bvh = fcl.BVHModel()
     bvh.beginModel(len(v), len(f))
@@ -81,7 +89,7 @@ def _fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0
     faces = np.hstack([np.full((len(hf), 1), 3), hf]).ravel()
     hull = fcl.Convex(hv, len(hf), faces)
     lo, hi = v.min(0), v.max(0)
-    return bvh, hull, (lo + hi) / 2, (hi - lo) / 2
+    return bvh, hull, (lo + hi) / 2, (hi - lo) / 2, hv
 
 
 def rigid_group(desc: RobotDescription) -> dict[str, str]:
@@ -181,12 +189,13 @@ class Checker:
         self.link_index.append(link)
         for shape, T in parts:
             if isinstance(shape, UGeom):
-                geom, hull, c, h = _fcl_shape(shape.kind, shape.size, shape.radius, shape.length,
-                                              shape.path, shape.scale)
+                geom, hull, c, h, pts = _fcl_shape(shape.kind, shape.size, shape.radius,
+                                                   shape.length, shape.path, shape.scale)
             else:
-                geom, hull, c, h = _scene_shape(shape)
+                geom, hull, c, h, pts = _scene_shape(shape)
             self.geoms.append(_Geom(b, np.asarray(T, float), fcl.CollisionObject(geom),
-                                    None if hull is None else fcl.CollisionObject(hull), c, h))
+                                    None if hull is None else fcl.CollisionObject(hull), c, h,
+                                    pts))
 
     def object_aabb(self, name: str, T: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """World axis-aligned bounds (lower, upper) of a scene object's geometry at pose ``T``
@@ -323,6 +332,7 @@ class Checker:
                 if g not in placed:
                     tf = fcl.Transform(Tg[g, :3, :3], Tg[g, :3, 3])
                     self.geoms[g].obj.setTransform(tf)
+                    self.geoms[g].T = Tg[g]
                     if self.geoms[g].hull is not None:
                         self.geoms[g].hull.setTransform(tf)
                     placed.add(g)
@@ -353,7 +363,25 @@ class Checker:
         hb = B.hull if B.hull is not None else B.obj
         if not fcl.collide(ha, hb, self._req, res):
             return 0.0
-        return abs(res.contacts[0].penetration_depth)
+        depth = abs(res.contacts[0].penetration_depth)
+        if depth > self.tolerance + DEPTH_EPS and A.pts is not None and B.pts is not None:
+            exact = _polytope_depth(A.pts @ A.T[:3, :3].T + A.T[:3, 3],
+                                    B.pts @ B.T[:3, :3].T + B.T[:3, 3])
+            if exact is not None:
+                return exact
+        return depth
+
+
+def _polytope_depth(PA: np.ndarray, PB: np.ndarray) -> float | None:
+    """The penetration depth of the convex hulls of the points PA and PB (world): the distance
+    from the origin to the boundary of their Minkowski difference, the hull of every PB_i - PA_j
+    (qhull), 0 when they do not overlap; None when qhull cannot build it (a flat difference)."""
+    from scipy.spatial import ConvexHull, QhullError
+    try:
+        hull = ConvexHull((PB[:, None] - PA[None]).reshape(-1, 3))
+    except (QhullError, ValueError):
+        return None
+    return max(0.0, float((-hull.equations[:, 3]).min()))
 
 
 def _scene_shape(shape):
