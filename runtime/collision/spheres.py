@@ -322,11 +322,14 @@ class Plan:
     box_half: np.ndarray         # (W, 3) half-extents of each obstacle's world AABB
     ff: np.ndarray               # (F, 2)
     tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
-    hull_p: np.ndarray           # (P, 3) convex stage: hull points, moving (frame coordinates)
-    hull_s: np.ndarray           # (M + W + 1,) then obstacles (world); geometry i's are
-    all_p: np.ndarray            # (V, 3)  hull_p[hull_s[i]:hull_s[i + 1]], every point of it
-    all_s: np.ndarray            # (M + W + 1,) all_p[all_s[i]:all_s[i + 1]] (hull_points)
-    hull_r: np.ndarray           # (M + W,) rounding radius
+    # the convex stage (hull_points), geometry i = the moving ones (frame coordinates), then
+    # the obstacles (world): its hull points hull_p[hull_s[i]:hull_s[i + 1]], every point of it
+    # all_p[all_s[i]:all_s[i + 1]] (none: the hull points), its radius hull_r[i]
+    hull_p: np.ndarray           # (P, 3)
+    hull_s: np.ndarray           # (M + W + 1,)
+    all_p: np.ndarray            # (V, 3)
+    all_s: np.ndarray            # (M + W + 1,)
+    hull_r: np.ndarray           # (M + W,)
 
 
 @dataclass
