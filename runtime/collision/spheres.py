@@ -205,7 +205,7 @@ HULL_POINTS_MAX = 512
 _PRISM_SIDES = 12
 
 
-def hull_points(shape: Shape, mesh: "MeshData | None",
+def hull_points(shape: Shape, mesh: MeshData | None,
                 store=None) -> tuple[np.ndarray, np.ndarray, float]:
     """The convex stage's view of a geometry (its frame): ``(points, every, r)``. The geometry
     lies in the hull of ``every`` (None: of ``points``) grown by radius r, and GJK runs on the
@@ -245,7 +245,7 @@ def hull_points(shape: Shape, mesh: "MeshData | None",
 HULL_TRUST = 1e-12
 
 
-def _hull_outside(mesh: "MeshData") -> float:
+def _hull_outside(mesh: MeshData) -> float:
     """How far the mesh's farthest vertex lies outside a facet plane of its convex hull (<= 0:
     inside every one)."""
     H, HF, V = mesh.hull_vertices, mesh.hull_faces, np.asarray(mesh.vertices, float)
@@ -263,7 +263,7 @@ def _hull_outside(mesh: "MeshData") -> float:
     return worst
 
 
-def _stored_outside(mesh: "MeshData", store) -> float:
+def _stored_outside(mesh: MeshData, store) -> float:
     if store is None:
         return _hull_outside(mesh)
     name = "outside/" + mesh_key(mesh.vertices, mesh.faces)
