@@ -136,18 +136,6 @@ def _support(pts, lo, hi, R, p, f, s, d0, d1, d2):
             R[f, 2, 0, s] * x0 + R[f, 2, 1, s] * x1 + R[f, 2, 2, s] * x2 + p[f, 2, s])
 
 
-@numba.njit(cache=True, nogil=True)
-def _reach(pts, lo, hi, R, p, f, s, d0, d1, d2):
-    """max over pts[lo:hi] (frame f's coordinates) of the world position's dot product with d."""
-    l0, l1, l2 = _dir(R, f, s, d0, d1, d2)
-    best = -np.inf
-    for i in range(lo, hi):
-        best = max(best, pts[i, 0] * l0 + pts[i, 1] * l1 + pts[i, 2] * l2)
-    if f < 0:
-        return best
-    return best + p[f, 0, s] * d0 + p[f, 1, s] * d1 + p[f, 2, s] * d2
-
-
 @numba.njit(cache=True, nogil=True, inline="always")
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -246,12 +234,12 @@ def _apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
         if w0 * e0 + w1 * e1 + w2 * e2 < -HULL_GAP * nd:
             # the certificate on every point: max over A of x.d + ra|d| < min over B - gap (a
             # set with no points of its own: its hull points are all, and GJK just did that)
-            ha = x0 * e0 + x1 * e1 + x2 * e2
             if wa > va:
-                ha = _reach(allp, va, wa, R, p, fa, s, e0, e1, e2)
-            hb = y0 * e0 + y1 * e1 + y2 * e2
+                x0, x1, x2 = _support(allp, va, wa, R, p, fa, s, e0, e1, e2)
             if wb > vb:
-                hb = -_reach(allp, vb, wb, R, p, fb, s, -e0, -e1, -e2)
+                y0, y1, y2 = _support(allp, vb, wb, R, p, fb, s, -e0, -e1, -e2)
+            ha = x0 * e0 + x1 * e1 + x2 * e2
+            hb = y0 * e0 + y1 * e1 + y2 * e2
             return ha + ra * nd < hb - rb * nd - HULL_GAP * nd
         S[n, 0], S[n, 1], S[n, 2] = w0, w1, w2
         n += 1
