@@ -38,7 +38,8 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
 #: language server start without them
 HEAVY = {"jax", "jaxlib", "numba", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",
          "ompl", "collada", "matplotlib", "ray", "rich", "importlib", "traceback", "dataclasses", "itertools", "json",
-         "pathlib", "xml"}
+         "pathlib", "xml",
+         "scipy"}    # scipy.spatial (qhull) for the validator's exact depths: 0.2 s, ~25 MB
 
 
 def _modules() -> dict[str, Path]:
