@@ -441,3 +441,39 @@ def kinematics(Q, parent, child, origin_R, origin_p, kind, axis, source, scale, 
                 R[c_, i, 0, b] = x0 + y0 * sv + z0_ * cv
                 R[c_, i, 1, b] = x1 + y1 * sv + z1 * cv
                 R[c_, i, 2, b] = x2 + y2 * sv + z2 * cv
+
+
+@numba.njit(cache=True, nogil=True)
+def sure(ga, gb, slot, Rw, tw, pts_start, pts, half, fix_R, fix_t, fixed, need, out):
+    """Per candidate row (geometries ga, gb; their places in Rw, tw by ``slot``, -1: fixed):
+    whether one is a mesh with a convex hull (points ``pts[pts_start[g]:pts_start[g + 1]]`` in
+    its frame) one of whose hull vertices lies deeper than ``need`` inside the other, a box
+    primitive (half-extents ``half[g]``, ``half[g, 0] < 0``: no box; a fixed box's world pose
+    ``fix_R[g]``, ``fix_t[g]`` when ``fixed[g]``). :meth:`CollisionWorld._sure` says why such
+    a row collides for sure."""
+    for r in range(ga.shape[0]):
+        out[r] = False
+        for side in range(2):
+            a, b = (ga[r], gb[r]) if side == 0 else (gb[r], ga[r])
+            ka, kb = slot[r, side], slot[r, 1 - side]
+            if ka < 0 or half[b, 0] < 0.0 or pts_start[a] == pts_start[a + 1]:
+                continue
+            if kb < 0 and not fixed[b]:
+                continue
+            RB = Rw[kb] if kb >= 0 else fix_R[b]
+            tB = tw[kb] if kb >= 0 else fix_t[b]
+            RA, tA = Rw[ka], tw[ka]
+            for i in range(pts_start[a], pts_start[a + 1]):
+                x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
+                w0 = RA[0, 0] * x0 + RA[0, 1] * x1 + RA[0, 2] * x2 + tA[0] - tB[0]
+                w1 = RA[1, 0] * x0 + RA[1, 1] * x1 + RA[1, 2] * x2 + tA[1] - tB[1]
+                w2 = RA[2, 0] * x0 + RA[2, 1] * x1 + RA[2, 2] * x2 + tA[2] - tB[2]
+                depth = math.inf
+                for j in range(3):
+                    depth = min(depth, half[b, j] - abs(RB[0, j] * w0 + RB[1, j] * w1
+                                                        + RB[2, j] * w2))
+                if depth > need:
+                    out[r] = True
+                    break
+            if out[r]:
+                break

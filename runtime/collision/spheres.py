@@ -536,10 +536,11 @@ class FirstPass:
 
 
 #: the collision checker's compiled loops built ahead of time, in one module:
-#: :func:`~tmpc.runtime.collision.pass_kernel.candidates` and
-#: :func:`~tmpc.runtime.collision.pass_kernel.kinematics` (their argument types: what
-#: :meth:`FirstPass.candidates` and :class:`~tmpc.runtime.collision.kinematics.Kinematics`
-#: pass; a test checks them against numba's typeof)
+#: :func:`~tmpc.runtime.collision.pass_kernel.candidates`,
+#: :func:`~tmpc.runtime.collision.pass_kernel.kinematics` and
+#: :func:`~tmpc.runtime.collision.pass_kernel.sure` (their argument types: what
+#: :meth:`FirstPass.candidates`, :class:`~tmpc.runtime.collision.kinematics.Kinematics` and
+#: :meth:`CollisionWorld._sure` pass; tests check them against numba's typeof)
 PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("candidates",
      ("UniTuple(i8, 3)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
@@ -549,10 +550,13 @@ PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("kinematics",
      ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
       "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
-      "f8[:,:,::1])"))))
+      "f8[:,:,::1])")),
+    ("sure",
+     ("void(i8[::1], i8[::1], i8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], f8[:,::1], "
+      "f8[:,:,::1], f8[:,::1], b1[::1], f8, b1[::1])"))))
 #: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
 #: JIT) and why the JIT (None: the built module)
-_KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}
+_KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "sure": None, "why": None}
 
 
 def prepare_kernel() -> None:
@@ -573,14 +577,16 @@ def _fall_back(exc: TypeError, name: str = "candidates"):
 
 
 def pass_kernel(name: str = "candidates"):
-    """The compiled function ``name`` (``candidates``: the candidate search; ``kinematics``):
+    """The compiled function ``name`` (``candidates``: the candidate search; ``kinematics``;
+    ``sure``: the rows certain to collide):
     the module built ahead of time (:mod:`tmpc.compiler.aot`: no numba in the process), else
     numba's JIT of the same source (the reason is kept in ``_KERNEL_STATE["why"]`` and said
     once on stderr when the build has just failed)."""
     if _KERNEL_STATE[name] is None:
         module, why = aot.obtain(PASS_KERNEL)
         if module is not None:
-            _KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics)
+            _KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics,
+                                 sure=module.sure)
         else:
             say = why.startswith("the ahead-of-time build failed:") or "rebuilt" in why
             _use_jit(why, f"{why}; using numba's JIT instead (about 0.5 s more setup and 140 MB "
@@ -595,7 +601,8 @@ def _use_jit(why: str, warning: str | None) -> None:
     from tmpc.runtime.collision import pass_kernel as jit
     if warning is not None:
         warnings.warn(f"collision pass: {warning}", stacklevel=3)
-    _KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, why=why)
+    _KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, sure=jit.sure,
+                         why=why)
 
 
 # ---------------------------------------------------------------------------------------------

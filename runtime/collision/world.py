@@ -47,10 +47,13 @@ from tmpc.runtime.collision.geometry import (
     srdf_disabled_pairs,
 )
 from tmpc.runtime.collision.kinematics import Kinematics
-from tmpc.runtime.collision.spheres import FirstPass
+from tmpc.runtime.collision.spheres import FirstPass, _fall_back, pass_kernel
 
 #: numerical slack on penetration depth: a resting contact computed as 1e-12 deep is not a collision
 DEPTH_EPS = 1e-9
+#: a hull vertex this much deeper than the tolerance inside a box collides for sure (m): fcl's
+#: EPA finds the depth to ~1e-6
+SURE_DEPTH = 1e-3
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,7 @@ class PassStats:
     settled: int = 0             # states with no candidate pair left: free without fcl
     colliding: int = 0
     queries: int = 0             # exact fcl pair queries made on the candidates
+    sure: int = 0                # colliding states found with no fcl query (a vertex deep in a box)
 
     def add(self, n: int, cand, bad) -> None:
         self.states += n
@@ -186,6 +190,7 @@ class CollisionWorld:
         self._touch = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
         self._first_pass_enabled = first_pass
         self._first_pass = None
+        self._sure_geometry = None
         #: exact queries and collisions found per geometry pair (:meth:`_confirm` asks a
         #: state's likeliest pairs first: a colliding state then costs about one query)
         self._pair_tries: np.ndarray | None = None
@@ -737,7 +742,8 @@ class CollisionWorld:
         remaining pairs are skipped after its first collision; a state's pairs are asked in
         the order of how often each pair was found colliding so far). ``motions``: the chunk's
         ``(segment, bisection rank)`` per state and the dead segments (:meth:`_invalid_states`):
-        states are visited by rank, and a dead segment's are skipped."""
+        states are visited by rank, and a dead segment's are skipped. States with a pair
+        :meth:`_sure` to collide are colliding with no query."""
         n = len(cand.states)
         if not n:
             return np.zeros(0, np.int64)
@@ -753,20 +759,24 @@ class CollisionWorld:
         else:
             order = np.lexsort((-likely, cand.states))
         cand = cand.take(order)
-        mpos = np.full(len(self.geoms), -1, np.int64)
-        mpos[plan.mv] = np.arange(len(plan.mv))
         states = cand.states
-        pos = np.stack([mpos[cand.ga], mpos[cand.gb]], 1)                  # (n, 2), -1: fixed
-        moving = pos >= 0
-        i, s = pos[moving], np.broadcast_to(states[:, None], pos.shape)[moving]
-        f = plan.fpos[i]
-        Rf = cand.R[f, :, :, s]                                          # (k, 3, 3)
-        loc = plan.local[i]
-        Rw = Rf @ loc[:, :3, :3]
-        tw = (Rf @ loc[:, :3, 3, None])[..., 0] + cand.p[f, :, s]
-        slot = np.full(pos.shape, -1, np.int64)
-        slot[moving] = np.arange(len(i))
+        Rw, tw, slot = self._moving_poses(cand, plan)
         bad: list[int] = []
+        # states certain to collide (:meth:`_sure`) need no fcl call; with ``first_state_only``
+        # the states before the first of them are still asked
+        sure = np.unique(states[self._sure(cand, plan, Rw, tw, slot)])
+        if len(sure):
+            self.stats.sure += len(sure)
+            if first_state_only:
+                sure = sure[:1]
+                keep = states < sure[0]
+            else:
+                keep = ~np.isin(states, sure)
+                bad = sure.tolist()
+                if motions is not None:
+                    dead[seg[sure]] = True
+            states, slot = states[keep], slot[keep]
+            cand = cand.take(np.nonzero(keep)[0])
         asked, hit = [], []
         cur, done, placed = -1, False, set()
         dead_of = None if motions is None else seg.tolist()
@@ -791,10 +801,69 @@ class CollisionWorld:
                     dead[dead_of[st]] = True
                 if first_state_only:
                     break
+        if first_state_only and not bad and len(sure):
+            bad = [int(sure[0])]
         self.stats.queries += len(asked)
         np.add.at(self._pair_tries, (cand.ga[asked], cand.gb[asked]), 1)
         np.add.at(self._pair_hits, (cand.ga[hit], cand.gb[hit]), 1)
         return np.unique(np.array(bad, np.int64))
+
+    def _moving_poses(self, cand, plan):
+        """World rotations and translations (Rw (k, 3, 3), tw (k, 3)) of the moving geometries
+        of candidate rows, and per row and side the position there (``slot`` (n, 2), -1: the
+        geometry does not move in the batch)."""
+        mpos = np.full(len(self.geoms), -1, np.int64)
+        mpos[plan.mv] = np.arange(len(plan.mv))
+        pos = np.stack([mpos[cand.ga], mpos[cand.gb]], 1)                  # (n, 2), -1: fixed
+        moving = pos >= 0
+        i, s = pos[moving], np.broadcast_to(cand.states[:, None], pos.shape)[moving]
+        f = plan.fpos[i]
+        Rf = cand.R[f, :, :, s]                                          # (k, 3, 3)
+        loc = plan.local[i]
+        Rw = Rf @ loc[:, :3, :3]
+        tw = (Rf @ loc[:, :3, 3, None])[..., 0] + cand.p[f, :, s]
+        slot = np.full(pos.shape, -1, np.int64)
+        slot[moving] = np.arange(len(i))
+        return Rw, tw, slot
+
+    def _sure(self, cand, plan, Rw, tw, slot) -> np.ndarray:
+        """Candidate rows certain to collide, no fcl call
+        (:func:`~tmpc.runtime.collision.pass_kernel.sure`): a mesh with a convex hull one of
+        whose hull vertices lies deeper than ``tolerance`` + :data:`SURE_DEPTH` inside a box
+        primitive. The vertex is a point of the mesh's surface (qhull's hull vertices are mesh
+        vertices), so fcl's mesh-box test touches; and any translation that separates the hull
+        from the box moves that vertex out of the box, so their penetration depth, the exact
+        check's (:meth:`_depth`), is at least the vertex's depth. Box against box is left to
+        fcl: its box test reports a contact point's depth, not the pair's."""
+        sure = np.zeros(len(cand.ga), bool)
+        pts_start, pts, half = self._sure_data()
+        if not len(sure) or not len(pts) or not (half[:, 0] >= 0).any():
+            return sure                            # no mesh with a hull, or no box
+        G = len(self.geoms)
+        fix_R, fix_t, fixed = np.zeros((G, 3, 3)), np.zeros((G, 3)), np.zeros(G, bool)
+        fix_R[plan.box_geom], fix_t[plan.box_geom], fixed[plan.box_geom] = \
+            plan.box_R, plan.box_t, True
+        args = (np.ascontiguousarray(cand.ga), np.ascontiguousarray(cand.gb),
+                np.ascontiguousarray(slot), np.ascontiguousarray(Rw), np.ascontiguousarray(tw),
+                pts_start, pts, half, fix_R, fix_t, fixed, self.tolerance + SURE_DEPTH, sure)
+        try:
+            pass_kernel("sure")(*args)
+        except TypeError as exc:        # the built module refused (see spheres._fall_back)
+            _fall_back(exc, "sure")(*args)
+        return sure
+
+    def _sure_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_sure`'s geometry: each mesh's hull vertices (ragged: starts, points) and
+        each box's half-extents (-1 for other shapes)."""
+        if self._sure_geometry is None:
+            pts = [np.asarray(g.mesh.hull_vertices, float).reshape(-1, 3)
+                   if g.hull is not None and g.mesh is not None else np.zeros((0, 3))
+                   for g in self.geoms]
+            start = np.concatenate([[0], np.cumsum([len(p) for p in pts])]).astype(np.int64)
+            half = np.array([np.asarray(g.shape.size, float) if g.shape.kind == "box"
+                             else np.full(3, -1.0) for g in self.geoms]).reshape(-1, 3)
+            self._sure_geometry = (start, np.ascontiguousarray(np.concatenate(pts)), half)
+        return self._sure_geometry
 
     def _Q(self, q, single: bool = False) -> np.ndarray:
         Q = np.asarray(q, float)

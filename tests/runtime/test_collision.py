@@ -456,9 +456,74 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     missing = [(i, a, b) for i in range(500) for a, b, _ in w.check(Q[i], attached=held).pairs
                if (i, frozenset((a, b))) not in got and not {a, b} <= fixed]
     assert missing == []
-    assert w.stats.states >= 6000
+    assert w.stats.states >= 6000 and w.stats.sure > 0
     # the convex stage (GJK on the hulls) rules out a fifth or more of what the covers leave
     assert w.stats.fine_pairs < 0.8 * w.stats.cover_pairs, w.stats
+
+
+def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
+    """The rows the checker settles with no fcl query (a link mesh's hull vertex deeper than
+    the tolerance + SURE_DEPTH inside a box, :meth:`CollisionWorld._sure`) are colliding pairs
+    of exact fcl, with a held box and at a tolerance; the built module's answers equal the
+    JIT's and it takes the types the checker passes; and the states it settles save queries
+    (same answers without it)."""
+    import numba
+
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision import CollisionWorld, spheres
+    from tmpc.runtime.collision import pass_kernel as jit
+    from tmpc.runtime.collision import world as cw
+    model, fk = pr2_mobile
+    module, why = aot.obtain(spheres.PASS_KERNEL)
+    assert module is not None, why
+    sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)["sure"])
+    objs = four_tables()
+    objs += [box(f"stick{i}", (1.2 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
+             for i in range(3)]
+    sc = mobile_scene(model, objs)
+    rng = np.random.default_rng(8)
+    Q = rng.uniform(model.lower, model.upper, (1500, model.dof))
+    Q[:, :2] = rng.uniform(-1.0, 1.0, (1500, 2))
+    body = lambda w, g: w.bodies[w.geoms[g].body].name
+    seen = []
+
+    def typed(*args):
+        seen.append(tuple(numba.typeof(a) for a in args))
+        return module.sure(*args)
+
+    for tol, att in ((0.0, None), (0.02, {"stick0": (TOOL, np.eye(4))})):
+        w = CollisionWorld(sc, model, tolerance=tol)
+        fp = w.first_pass()
+        place, allowed = w.placements(attached=att)
+        plan = fp.plan(place, allowed)
+        cand = fp.candidates(Q, plan)
+        poses = w._moving_poses(cand, plan)
+        got = []
+        seen.clear()
+        state = dict(spheres._KERNEL_STATE)
+        try:
+            for fn in (typed, jit.sure):
+                spheres._KERNEL_STATE["sure"] = fn
+                got.append(w._sure(cand, plan, *poses))
+        finally:
+            spheres._KERNEL_STATE.update(state)
+        sure = got[0]
+        assert (sure == got[1]).all() and seen == [tuple(sig.args)]
+        assert 30 < sure.sum() < len(sure)
+        for s, a, b in zip(cand.states[sure], cand.ga[sure], cand.gb[sure]):
+            pairs = {frozenset(p[:2]) for p in w.check(Q[s], attached=att).pairs}
+            assert frozenset((body(w, a), body(w, b))) in pairs
+        # the same answers with the test off, and more queries
+        ok = w.check_batch(Q, attached=att)
+        off = CollisionWorld(sc, model, tolerance=tol)
+        old = cw.SURE_DEPTH
+        try:
+            cw.SURE_DEPTH = math.inf
+            assert (off.check_batch(Q, attached=att) == ok).all()
+        finally:
+            cw.SURE_DEPTH = old
+        assert w.stats.sure > 0 and off.stats.sure == 0
+        assert w.stats.queries < 0.9 * off.stats.queries, (w.stats, off.stats)
 
 
 def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile):
