@@ -71,6 +71,19 @@ def mobile_scene(model, objs):
                  RobotSpec(urdf=model.tree.path, mobile_base=True), tuple(objs))
 
 
+def tables_and_sticks(n: int, x0: float):
+    """:func:`four_tables` and n movable sticks standing in a row from x = ``x0``."""
+    return four_tables() + [box(f"stick{i}", (x0 + 0.1 * i, 0.1 * (i % 3), 0.9),
+                                (0.02, 0.02, 0.15), True) for i in range(n)]
+
+
+def random_states(model, rng, n: int):
+    """n random states of a mobile-base model: base within 1 m of the origin, joints uniform."""
+    Q = rng.uniform(model.lower, model.upper, (n, model.dof))
+    Q[:, :2] = rng.uniform(-1.0, 1.0, (n, 2))
+    return Q
+
+
 def random_motions(model, rng, n: int, spread: float):
     """n random motions (starts A, ends B) of a mobile-base model: base within 0.8 m of the
     origin, joints uniform, each end ``spread`` (normal) from its start, within the limits."""
@@ -477,13 +490,8 @@ def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
     module, why = aot.obtain(spheres.PASS_KERNEL)
     assert module is not None, why
     sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)["sure"])
-    objs = four_tables()
-    objs += [box(f"stick{i}", (1.2 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
-             for i in range(3)]
-    sc = mobile_scene(model, objs)
-    rng = np.random.default_rng(8)
-    Q = rng.uniform(model.lower, model.upper, (1500, model.dof))
-    Q[:, :2] = rng.uniform(-1.0, 1.0, (1500, 2))
+    sc = mobile_scene(model, tables_and_sticks(3, 1.2))
+    Q = random_states(model, np.random.default_rng(8), 1500)
     body = lambda w, g: w.bodies[w.geoms[g].body].name
     seen = []
 
@@ -681,13 +689,8 @@ def test_exact_queries_ask_the_pairs_found_colliding_before_first(pr2_mobile):
     to order (with it: 1,745 queries against 2,051)."""
     from tmpc.runtime.collision import CollisionWorld
     model, fk = pr2_mobile
-    objs = four_tables()
-    objs += [box(f"stick{i}", (1.6 + 0.1 * i, 0.1 * (i % 3), 0.9), (0.02, 0.02, 0.15), True)
-             for i in range(4)]
-    sc = mobile_scene(model, objs)
-    rng = np.random.default_rng(2)
-    Q = rng.uniform(model.lower, model.upper, (3000, model.dof))
-    Q[:, :2] = rng.uniform(-1.0, 1.0, (3000, 2))
+    sc = mobile_scene(model, tables_and_sticks(4, 1.6))
+    Q = random_states(model, np.random.default_rng(2), 3000)
     learned, forgetful = CollisionWorld(sc, model), CollisionWorld(sc, model)
     for w in (learned, forgetful):
         fp = w.first_pass()
