@@ -93,13 +93,31 @@ def _world_balls(R, p, s, fm, cov, m, idx, n, W):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _emit(out_s, out_a, out_b, n, s, ga, gb):
-    """Write candidate (state s, geometries ga, gb) at n: the next free position, or -1 when the
-    outputs are full."""
+def _emit(out_s, out_a, out_b, out_f, n, s, ga, gb, sure):
+    """Write candidate (state s, geometries ga, gb; ``sure``: certain to collide) at n; returns
+    the next free position, or -1 when the outputs are full."""
     if n == len(out_s):
         return -1
-    out_s[n], out_a[n], out_b[n] = s, ga, gb
+    out_s[n], out_a[n], out_b[n], out_f[n] = s, ga, gb, sure
     return n + 1
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _deep(pts, lo, hi, R, p, f, s, box_R, box_t, box_x, w, need):
+    """Whether a point of pts[lo:hi] (coordinates of frame f) lies deeper than ``need`` inside
+    box w (world rotation box_R[w], center box_t[w], half-extents box_x[w])."""
+    for i in range(lo, hi):
+        x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
+        w0 = R[f, 0, 0, s] * x0 + R[f, 0, 1, s] * x1 + R[f, 0, 2, s] * x2 + p[f, 0, s] - box_t[w, 0]
+        w1 = R[f, 1, 0, s] * x0 + R[f, 1, 1, s] * x1 + R[f, 1, 2, s] * x2 + p[f, 1, s] - box_t[w, 1]
+        w2 = R[f, 2, 0, s] * x0 + R[f, 2, 1, s] * x1 + R[f, 2, 2, s] * x2 + p[f, 2, s] - box_t[w, 2]
+        depth = math.inf
+        for j in range(3):
+            depth = min(depth, box_x[w, j] - abs(box_R[w, 0, j] * w0 + box_R[w, 1, j] * w1
+                                                 + box_R[w, 2, j] * w2))
+        if depth > need:
+            return True
+    return False
 
 
 #: the convex stage rules a pair out only when its two convex hulls are this far apart (m)
@@ -259,7 +277,8 @@ def _apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
 @numba.njit(cache=True, nogil=True)
 def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov,
                mm, table_of, table_free, bb_start, bb_m, box_R, box_t, box_h, box_r, box_half,
-               mv, box_geom, hull_p, hull_s, all_p, all_s, hull_r, out_s, out_a, out_b):
+               mv, box_geom, hull_p, hull_s, all_p, all_s, hull_r, sure_ok, box_x, need,
+               out_s, out_a, out_b, out_f):
     """The candidate pairs of states 0..B-1 (R (U, 3, 3, B), p (U, 3, B): kinematics of the
     plan's frames, batch-last), written to out_s/out_a/out_b (global geometry ids) in state
     order; returns (pairs written, pairs left after the coarse stages, pairs left after the
@@ -267,7 +286,11 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
     ones 0..M-1, then the obstacles) is the hull of hull_p[hull_s[i]:hull_s[i + 1]] (its
     frame's coordinates; the world's for obstacles) grown by hull_r[i], every point of it in
     the hull of all_p[all_s[i]:all_s[i + 1]] grown likewise (none there: of its hull points);
-    no hull points: no convex stage."""
+    no hull points: no convex stage. ``out_f`` marks the pairs certain to collide: moving
+    geometry m with ``sure_ok[m]`` (a mesh with a convex hull, its hull points the hull's
+    vertices) one of whose hull points lies deeper than ``need`` inside obstacle w, a box
+    primitive of half-extents ``box_x[w]`` (``box_x[w, 0] < 0``: no box; world pose box_R[w],
+    box_t[w]); such a pair is its state's last (the obstacles come first)."""
     B = R.shape[3]
     M = len(fpos)
     K = cov.shape[1]
@@ -295,6 +318,52 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
             lo0, hi0 = min(lo0, c[m, 0] - r), max(hi0, c[m, 0] + r)
             lo1, hi1 = min(lo1, c[m, 1] - r), max(hi1, c[m, 1] + r)
             lo2, hi2 = min(lo2, c[m, 2] - r), max(hi2, c[m, 2] + r)
+        # moving geometries against obstacle boxes, grouped by box (first: a pair found
+        # colliding for sure there settles the state)
+        sure = False
+        for w in range(len(box_t)):
+            h0, h1, h2 = box_half[w, 0], box_half[w, 1], box_half[w, 2]
+            t0, t1, t2 = box_t[w, 0], box_t[w, 1], box_t[w, 2]
+            if lo0 > t0 + h0 or hi0 < t0 - h0 or lo1 > t1 + h1 or hi1 < t1 - h1 \
+                    or lo2 > t2 + h2 or hi2 < t2 - h2:
+                continue
+            for k in range(bb_start[w], bb_start[w + 1]):
+                m = bb_m[k]
+                rr = ball_r[m] + box_r[w]
+                if _box_d2(box_R, box_h, w, c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2) > rr * rr:
+                    continue
+                coarse += 1
+                _world_balls(R, p, s, fpos[m], cov, m, every, ncov[m], Wa)
+                hit = False
+                for i in range(ncov[m]):
+                    rr = cov_r[m, i] + box_r[w]
+                    if _box_d2(box_R, box_h, w, Wa[i, 0] - t0, Wa[i, 1] - t1,
+                               Wa[i, 2] - t2) <= rr * rr:
+                        hit = True
+                        break
+                if not hit:
+                    continue
+                covers += 1
+                o = M + w
+                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and _apart(
+                        hull_p, all_p, hull_s[m], hull_s[m + 1], all_s[m], all_s[m + 1],
+                        hull_r[m], fpos[m], hull_s[o], hull_s[o + 1], all_s[o], all_s[o + 1],
+                        hull_r[o], -1, R, p, s, t0 - c[m, 0], t1 - c[m, 1], t2 - c[m, 2], S, dv):
+                    continue
+                # a hull vertex of a mesh deep inside a box primitive: colliding for sure
+                # (CollisionWorld._confirm says why); the state's other pairs are not needed
+                sure = sure_ok[m] and box_x[w, 0] >= 0.0 and _deep(
+                    hull_p, hull_s[m], hull_s[m + 1], R, p, fpos[m], s, box_R, box_t, box_x, w,
+                    need)
+                n_out = _emit(out_s, out_a, out_b, out_f, n_out, s, mv[m], box_geom[w], sure)
+                if n_out < 0:
+                    return -1, 0, 0
+                if sure:
+                    break
+            if sure:
+                break
+        if sure:
+            continue                    # a pair below collides for sure: done
         # pairs of moving geometries
         for k in range(len(mm)):
             a, b = mm[k, 0], mm[k, 1]
@@ -342,44 +411,10 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                     fa, hull_s[b], hull_s[b + 1], all_s[b], all_s[b + 1], hull_r[b], fb, R, p,
                     s, c[b, 0] - c[a, 0], c[b, 1] - c[a, 1], c[b, 2] - c[a, 2], S, dv):
                 continue
-            n_out = _emit(out_s, out_a, out_b, n_out, s, mv[a], mv[b])
+            n_out = _emit(out_s, out_a, out_b, out_f, n_out, s, mv[a], mv[b], False)
             if n_out < 0:
                 return -1, 0, 0
-        # moving geometries against obstacle boxes, grouped by box
-        for w in range(len(box_t)):
-            h0, h1, h2 = box_half[w, 0], box_half[w, 1], box_half[w, 2]
-            t0, t1, t2 = box_t[w, 0], box_t[w, 1], box_t[w, 2]
-            if lo0 > t0 + h0 or hi0 < t0 - h0 or lo1 > t1 + h1 or hi1 < t1 - h1 \
-                    or lo2 > t2 + h2 or hi2 < t2 - h2:
-                continue
-            for k in range(bb_start[w], bb_start[w + 1]):
-                m = bb_m[k]
-                rr = ball_r[m] + box_r[w]
-                if _box_d2(box_R, box_h, w, c[m, 0] - t0, c[m, 1] - t1, c[m, 2] - t2) > rr * rr:
-                    continue
-                coarse += 1
-                _world_balls(R, p, s, fpos[m], cov, m, every, ncov[m], Wa)
-                hit = False
-                for i in range(ncov[m]):
-                    rr = cov_r[m, i] + box_r[w]
-                    if _box_d2(box_R, box_h, w, Wa[i, 0] - t0, Wa[i, 1] - t1,
-                               Wa[i, 2] - t2) <= rr * rr:
-                        hit = True
-                        break
-                if not hit:
-                    continue
-                covers += 1
-                o = M + w
-                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and _apart(
-                        hull_p, all_p, hull_s[m], hull_s[m + 1], all_s[m], all_s[m + 1],
-                        hull_r[m], fpos[m], hull_s[o], hull_s[o + 1], all_s[o], all_s[o + 1],
-                        hull_r[o], -1, R, p, s, t0 - c[m, 0], t1 - c[m, 1], t2 - c[m, 2], S, dv):
-                    continue
-                n_out = _emit(out_s, out_a, out_b, n_out, s, mv[m], box_geom[w])
-                if n_out < 0:
-                    return -1, 0, 0
     return n_out, coarse, covers
-
 
 
 @numba.njit(cache=True, nogil=True)
@@ -442,38 +477,3 @@ def kinematics(Q, parent, child, origin_R, origin_p, kind, axis, source, scale, 
                 R[c_, i, 1, b] = x1 + y1 * sv + z1 * cv
                 R[c_, i, 2, b] = x2 + y2 * sv + z2 * cv
 
-
-@numba.njit(cache=True, nogil=True)
-def sure(ga, gb, slot, Rw, tw, pts_start, pts, half, fix_R, fix_t, fixed, need, out):
-    """Per candidate row (geometries ga, gb; their places in Rw, tw by ``slot``, -1: fixed):
-    whether one is a mesh with a convex hull (points ``pts[pts_start[g]:pts_start[g + 1]]`` in
-    its frame) one of whose hull vertices lies deeper than ``need`` inside the other, a box
-    primitive (half-extents ``half[g]``, ``half[g, 0] < 0``: no box; a fixed box's world pose
-    ``fix_R[g]``, ``fix_t[g]`` when ``fixed[g]``). :meth:`CollisionWorld._sure` says why such
-    a row collides for sure."""
-    for r in range(ga.shape[0]):
-        out[r] = False
-        for side in range(2):
-            a, b = (ga[r], gb[r]) if side == 0 else (gb[r], ga[r])
-            ka, kb = slot[r, side], slot[r, 1 - side]
-            if ka < 0 or half[b, 0] < 0.0 or pts_start[a] == pts_start[a + 1]:
-                continue
-            if kb < 0 and not fixed[b]:
-                continue
-            RB = Rw[kb] if kb >= 0 else fix_R[b]
-            tB = tw[kb] if kb >= 0 else fix_t[b]
-            RA, tA = Rw[ka], tw[ka]
-            for i in range(pts_start[a], pts_start[a + 1]):
-                x0, x1, x2 = pts[i, 0], pts[i, 1], pts[i, 2]
-                w0 = RA[0, 0] * x0 + RA[0, 1] * x1 + RA[0, 2] * x2 + tA[0] - tB[0]
-                w1 = RA[1, 0] * x0 + RA[1, 1] * x1 + RA[1, 2] * x2 + tA[1] - tB[1]
-                w2 = RA[2, 0] * x0 + RA[2, 1] * x1 + RA[2, 2] * x2 + tA[2] - tB[2]
-                depth = math.inf
-                for j in range(3):
-                    depth = min(depth, half[b, j] - abs(RB[0, j] * w0 + RB[1, j] * w1
-                                                        + RB[2, j] * w2))
-                if depth > need:
-                    out[r] = True
-                    break
-            if out[r]:
-                break

@@ -198,6 +198,10 @@ def box(shape: Shape, aabb_center, aabb_half) -> tuple[np.ndarray, np.ndarray, f
     return np.asarray(aabb_center, float), _inflate(aabb_half), 0.0
 
 
+#: a mesh's hull vertex this much deeper than the tolerance inside a box primitive collides for
+#: sure (m; :meth:`~tmpc.runtime.collision.world.CollisionWorld._confirm`): fcl's EPA finds the
+#: depth to ~1e-6
+SURE_DEPTH = 1e-3
 #: a mesh whose convex hull has more vertices than this gets no convex stage (its support
 #: function, a pass over the vertices, would cost more than the fcl query it saves)
 HULL_POINTS_MAX = 512
@@ -330,6 +334,10 @@ class Plan:
     all_p: np.ndarray            # (V, 3)
     all_s: np.ndarray            # (M + W + 1,)
     hull_r: np.ndarray           # (M + W,)
+    # pairs sure to collide (CollisionWorld._confirm): moving geometry m a mesh whose hull points
+    # are its hull's vertices, obstacle w a box primitive of half-extents box_x[w] (else -1)
+    sure_ok: np.ndarray          # (M,) bool
+    box_x: np.ndarray            # (W, 3)
 
 
 @dataclass
@@ -344,11 +352,13 @@ class Candidates:
     p: np.ndarray
     coarse: int                  # pairs left after the bounding-ball stage
     covers: int = 0              # pairs left after the covers (then the convex stage)
+    sure: np.ndarray | None = None   # per pair: certain to collide (None: none is)
 
     def take(self, rows: np.ndarray) -> "Candidates":
         """These candidates, only (and in the order of) ``rows``."""
         return Candidates(self.states[rows], self.ga[rows], self.gb[rows], self.R, self.p,
-                          self.coarse, self.covers)
+                          self.coarse, self.covers,
+                          None if self.sure is None else self.sure[rows])
 
 
 class FirstPass:
@@ -443,6 +453,11 @@ class FirstPass:
             [self._placed_hull(int(g), world_T[int(g)]) for g in box_geom]
         hull_p, hull_s = _ragged([h[0] for h in convex])
         all_p, all_s = _ragged([h[1] for h in convex])
+        sure_ok = np.array([w.geoms[g].hull is not None and w.geoms[g].mesh is not None
+                            and len(self.hulls[g][0]) > 0 for g in mv], bool)
+        box_x = np.array([np.asarray(w.geoms[g].shape.size, float)
+                          if w.geoms[g].shape.kind == "box" else np.full(3, -1.0)
+                          for g in box_geom]).reshape(-1, 3)
         return Plan(used=used, mv=mv.astype(np.int64),
                     fpos=np.searchsorted(used, gframe[moving]), local=lm, ball_c=ball_c,
                     ball_r=ball_r, obb_c=obb_c.reshape(-1, 3),
@@ -452,7 +467,8 @@ class FirstPass:
                     box_geom=box_geom.astype(np.int64), box_R=box_R, box_t=box_t, box_h=box_h,
                     box_r=box_r, box_half=box_half.reshape(-1, 3), ff=pairs[~ma & ~mb],
                     tables=tables, hull_p=hull_p, hull_s=hull_s, all_p=all_p, all_s=all_s,
-                    hull_r=np.array([h[2] for h in convex], float))
+                    hull_r=np.array([h[2] for h in convex], float), sure_ok=sure_ok,
+                    box_x=box_x)
 
     def _placed_hull(self, g: int, T: np.ndarray):
         """Geometry g's :func:`hull_points` placed by T (its frame's or the world's)."""
@@ -492,13 +508,7 @@ class FirstPass:
         """Load the compiled pass (:func:`pass_kernel`) and make one call on a batch of one
         state and no pair; returns why it is numba's JIT, not the ahead-of-time module (None
         when it is that module)."""
-        f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
-        e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
-        pass_kernel()(np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1),
-                      f, np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)),
-                      i, np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e,
-                      np.zeros((0, 3, 3)), e3, e3, np.zeros(0), e3, i, e, e3, i, e3, i,
-                      np.zeros(0), i, i.copy(), i.copy())
+        pass_kernel()(*empty_pass_args())
         return _KERNEL_STATE["why"]
 
     def candidates(self, Q: np.ndarray, plan: Plan, frames=None) -> Candidates:
@@ -515,12 +525,13 @@ class FirstPass:
             free[row] = table.free(Q)
         cap = max(64, 4 * n)
         while True:
-            out = [np.empty(cap, np.int64) for _ in range(3)]
+            out = [np.empty(cap, np.int64) for _ in range(3)] + [np.empty(cap, bool)]
             args = (R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R,
                     plan.obb_h, plan.cov, plan.cov_r, plan.ncov, plan.mm, plan.table_of, free,
                     plan.bb_start, plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r,
                     plan.box_half, plan.mv, plan.box_geom, plan.hull_p, plan.hull_s,
-                    plan.all_p, plan.all_s, plan.hull_r, *out)
+                    plan.all_p, plan.all_s, plan.hull_r, plan.sure_ok, plan.box_x,
+                    self.world.tolerance + SURE_DEPTH, *out)
             try:
                 got, coarse, covers = kernel(*args)
             except TypeError as exc:
@@ -531,32 +542,41 @@ class FirstPass:
             if got >= 0:
                 break
             cap *= 4
-        s, a, b = (o[:got] for o in out)
-        return Candidates(s, a, b, R, p, coarse, covers)
+        s, a, b, f = (o[:got] for o in out)
+        return Candidates(s, a, b, R, p, coarse, covers, f)
 
 
 #: the collision checker's compiled loops built ahead of time, in one module:
-#: :func:`~tmpc.runtime.collision.pass_kernel.candidates`,
-#: :func:`~tmpc.runtime.collision.pass_kernel.kinematics` and
-#: :func:`~tmpc.runtime.collision.pass_kernel.sure` (their argument types: what
-#: :meth:`FirstPass.candidates`, :class:`~tmpc.runtime.collision.kinematics.Kinematics` and
-#: :meth:`CollisionWorld._sure` pass; tests check them against numba's typeof)
+#: :func:`~tmpc.runtime.collision.pass_kernel.candidates` and
+#: :func:`~tmpc.runtime.collision.pass_kernel.kinematics` (their argument types: what
+#: :meth:`FirstPass.candidates` and :class:`~tmpc.runtime.collision.kinematics.Kinematics`
+#: pass; a test checks them against numba's typeof)
 PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("candidates",
      ("UniTuple(i8, 3)(f8[:,:,:,::1], f8[:,:,::1], i8[::1], f8[:,::1], f8[::1], f8[:,::1], "
       "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
       "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
-      "i8[::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], f8[::1], i8[::1], i8[::1], i8[::1])")),
+      "i8[::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], f8[::1], b1[::1], f8[:,::1], f8, "
+      "i8[::1], i8[::1], i8[::1], b1[::1])")),
     ("kinematics",
      ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
       "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
-      "f8[:,:,::1])")),
-    ("sure",
-     ("void(i8[::1], i8[::1], i8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], f8[:,::1], "
-      "f8[:,:,::1], f8[:,::1], b1[::1], f8, b1[::1])"))))
+      "f8[:,:,::1])"))))
 #: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
 #: JIT) and why the JIT (None: the built module)
-_KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "sure": None, "why": None}
+_KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}
+
+
+def empty_pass_args() -> tuple:
+    """Arguments of :func:`~tmpc.runtime.collision.pass_kernel.candidates` for one state with no
+    geometry pair (a call that loads the kernel and finds nothing)."""
+    f, i = np.zeros((1, 3)), np.zeros(1, np.int64)
+    e3, e = np.zeros((0, 3)), np.zeros(0, np.int64)
+    return (np.zeros((1, 3, 3, 1)), np.zeros((1, 3, 1)), i, f, np.zeros(1), f,
+            np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)), i,
+            np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e, np.zeros((0, 3, 3)),
+            e3, e3, np.zeros(0), e3, i, e, e3, i, e3, i, np.zeros(0), np.zeros(1, bool), e3,
+            0.0, i.copy(), i.copy(), i.copy(), np.zeros(1, bool))
 
 
 def prepare_kernel() -> None:
@@ -577,16 +597,14 @@ def _fall_back(exc: TypeError, name: str = "candidates"):
 
 
 def pass_kernel(name: str = "candidates"):
-    """The compiled function ``name`` (``candidates``: the candidate search; ``kinematics``;
-    ``sure``: the rows certain to collide):
+    """The compiled function ``name`` (``candidates``: the candidate search; ``kinematics``):
     the module built ahead of time (:mod:`tmpc.compiler.aot`: no numba in the process), else
     numba's JIT of the same source (the reason is kept in ``_KERNEL_STATE["why"]`` and said
     once on stderr when the build has just failed)."""
     if _KERNEL_STATE[name] is None:
         module, why = aot.obtain(PASS_KERNEL)
         if module is not None:
-            _KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics,
-                                 sure=module.sure)
+            _KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics)
         else:
             say = why.startswith("the ahead-of-time build failed:") or "rebuilt" in why
             _use_jit(why, f"{why}; using numba's JIT instead (about 0.5 s more setup and 140 MB "
@@ -601,8 +619,7 @@ def _use_jit(why: str, warning: str | None) -> None:
     from tmpc.runtime.collision import pass_kernel as jit
     if warning is not None:
         warnings.warn(f"collision pass: {warning}", stacklevel=3)
-    _KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, sure=jit.sure,
-                         why=why)
+    _KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, why=why)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -47,13 +47,10 @@ from tmpc.runtime.collision.geometry import (
     srdf_disabled_pairs,
 )
 from tmpc.runtime.collision.kinematics import Kinematics
-from tmpc.runtime.collision.spheres import FirstPass, _fall_back, pass_kernel
+from tmpc.runtime.collision.spheres import FirstPass
 
 #: numerical slack on penetration depth: a resting contact computed as 1e-12 deep is not a collision
 DEPTH_EPS = 1e-9
-#: a hull vertex this much deeper than the tolerance inside a box collides for sure (m): fcl's
-#: EPA finds the depth to ~1e-6
-SURE_DEPTH = 1e-3
 
 
 @dataclass(frozen=True)
@@ -190,7 +187,6 @@ class CollisionWorld:
         self._touch = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
         self._first_pass_enabled = first_pass
         self._first_pass = None
-        self._sure_geometry = None
         #: exact queries and collisions found per geometry pair (:meth:`_confirm` asks a
         #: state's likeliest pairs first: a colliding state then costs about one query)
         self._pair_tries: np.ndarray | None = None
@@ -742,8 +738,16 @@ class CollisionWorld:
         remaining pairs are skipped after its first collision; a state's pairs are asked in
         the order of how often each pair was found colliding so far). ``motions``: the chunk's
         ``(segment, bisection rank)`` per state and the dead segments (:meth:`_invalid_states`):
-        states are visited by rank, and a dead segment's are skipped. States with a pair
-        :meth:`_sure` to collide are colliding with no query."""
+        states are visited by rank, and a dead segment's are skipped.
+
+        States with a pair the pass marked sure to collide (a mesh with a convex hull, one of
+        whose hull vertices lies deeper than ``tolerance`` + :data:`~tmpc.runtime.collision.
+        spheres.SURE_DEPTH` inside a box primitive) are colliding with no query. That is fcl's
+        answer: qhull's hull vertices are vertices of the mesh, so a triangle of the mesh
+        reaches into the solid box and fcl's mesh-box test touches; and any translation that
+        separates the hull from the box moves that vertex out of it, so their penetration
+        depth, the one :meth:`_depth` compares, is at least the vertex's depth. Box against box
+        is left to fcl (its box test reports a contact point's depth, not the pair's)."""
         n = len(cand.states)
         if not n:
             return np.zeros(0, np.int64)
@@ -751,32 +755,34 @@ class CollisionWorld:
         if self._pair_tries is None:
             self._pair_tries = np.zeros((G, G), np.int64)
             self._pair_hits = np.zeros((G, G), np.int64)
+        bad: list[int] = []
+        if motions is not None:
+            seg, rank, dead = motions
+        # states certain to collide need no fcl call (nor do the rest of their segments); with
+        # ``first_state_only`` the states before the first of them are still asked
+        sure = np.unique(cand.states[cand.sure]) if cand.sure is not None else cand.states[:0]
+        if len(sure):
+            self.stats.sure += len(sure)
+            if first_state_only:
+                sure = sure[:1]
+                keep = cand.states < sure[0]
+            else:
+                bad = sure.tolist()
+                keep = ~np.isin(cand.states, sure)
+                if motions is not None:
+                    dead[seg[sure]] = True
+            cand = cand.take(np.nonzero(keep)[0])
+        if motions is not None:
+            cand = cand.take(np.nonzero(~dead[seg[cand.states]])[0])
         likely = (self._pair_hits[cand.ga, cand.gb] + 1.0) / \
             (self._pair_tries[cand.ga, cand.gb] + 2.0)
         if motions is not None:
-            seg, rank, dead = motions
             order = np.lexsort((-likely, cand.states, rank[cand.states]))
         else:
             order = np.lexsort((-likely, cand.states))
         cand = cand.take(order)
         states = cand.states
         Rw, tw, slot = self._moving_poses(cand, plan)
-        bad: list[int] = []
-        # states certain to collide (:meth:`_sure`) need no fcl call; with ``first_state_only``
-        # the states before the first of them are still asked
-        sure = np.unique(states[self._sure(cand, plan, Rw, tw, slot)])
-        if len(sure):
-            self.stats.sure += len(sure)
-            if first_state_only:
-                sure = sure[:1]
-                keep = states < sure[0]
-            else:
-                keep = ~np.isin(states, sure)
-                bad = sure.tolist()
-                if motions is not None:
-                    dead[seg[sure]] = True
-            states, slot = states[keep], slot[keep]
-            cand = cand.take(np.nonzero(keep)[0])
         asked, hit = [], []
         cur, done, placed = -1, False, set()
         dead_of = None if motions is None else seg.tolist()
@@ -825,45 +831,6 @@ class CollisionWorld:
         slot = np.full(pos.shape, -1, np.int64)
         slot[moving] = np.arange(len(i))
         return Rw, tw, slot
-
-    def _sure(self, cand, plan, Rw, tw, slot) -> np.ndarray:
-        """Candidate rows certain to collide, no fcl call
-        (:func:`~tmpc.runtime.collision.pass_kernel.sure`): a mesh with a convex hull one of
-        whose hull vertices lies deeper than ``tolerance`` + :data:`SURE_DEPTH` inside a box
-        primitive. The vertex is a point of the mesh's surface (qhull's hull vertices are mesh
-        vertices), so fcl's mesh-box test touches; and any translation that separates the hull
-        from the box moves that vertex out of the box, so their penetration depth, the exact
-        check's (:meth:`_depth`), is at least the vertex's depth. Box against box is left to
-        fcl: its box test reports a contact point's depth, not the pair's."""
-        sure = np.zeros(len(cand.ga), bool)
-        pts_start, pts, half = self._sure_data()
-        if not len(sure) or not len(pts) or not (half[:, 0] >= 0).any():
-            return sure                            # no mesh with a hull, or no box
-        G = len(self.geoms)
-        fix_R, fix_t, fixed = np.zeros((G, 3, 3)), np.zeros((G, 3)), np.zeros(G, bool)
-        fix_R[plan.box_geom], fix_t[plan.box_geom], fixed[plan.box_geom] = \
-            plan.box_R, plan.box_t, True
-        args = (np.ascontiguousarray(cand.ga), np.ascontiguousarray(cand.gb),
-                np.ascontiguousarray(slot), np.ascontiguousarray(Rw), np.ascontiguousarray(tw),
-                pts_start, pts, half, fix_R, fix_t, fixed, self.tolerance + SURE_DEPTH, sure)
-        try:
-            pass_kernel("sure")(*args)
-        except TypeError as exc:        # the built module refused (see spheres._fall_back)
-            _fall_back(exc, "sure")(*args)
-        return sure
-
-    def _sure_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`_sure`'s geometry: each mesh's hull vertices (ragged: starts, points) and
-        each box's half-extents (-1 for other shapes)."""
-        if self._sure_geometry is None:
-            pts = [np.asarray(g.mesh.hull_vertices, float).reshape(-1, 3)
-                   if g.hull is not None and g.mesh is not None else np.zeros((0, 3))
-                   for g in self.geoms]
-            start = np.concatenate([[0], np.cumsum([len(p) for p in pts])]).astype(np.int64)
-            half = np.array([np.asarray(g.shape.size, float) if g.shape.kind == "box"
-                             else np.full(3, -1.0) for g in self.geoms]).reshape(-1, 3)
-            self._sure_geometry = (start, np.ascontiguousarray(np.concatenate(pts)), half)
-        return self._sure_geometry
 
     def _Q(self, q, single: bool = False) -> np.ndarray:
         Q = np.asarray(q, float)

@@ -428,7 +428,8 @@ def test_a_hull_that_misses_a_vertex_is_checked_on_every_vertex():
 def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     """Thousands of random PR2 states with a mobile base among boxes, movable sticks and a held
     object: the batched path (pass + fcl on candidates) equals exact fcl on every state, and
-    every colliding pair of every state is among the pass's candidates."""
+    every colliding pair of every state is among the pass's candidates (of a state with a pair
+    sure to collide, that one is enough)."""
     from tmpc.runtime.collision import CollisionWorld
     model, fk = pr2_mobile
     objs = four_tables()
@@ -458,7 +459,8 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
         assert (got == exact.check_batch(G, poses=poses, attached=att)).all()
     assert [len(ok) for ok in w.check_batches([(Q[:0], None, None), (Q[:0], moved, held)])] \
         == [0, 0]
-    # pair level, on 500 states: colliding pairs are a subset of the candidates
+    # pair level, on 500 states: colliding pairs are a subset of the candidates (but for the
+    # states settled by a pair sure to collide, the pass's last of those)
     fp = w.first_pass()
     place, allowed = w.placements(attached=held)
     cand = fp.candidates(Q[:500], fp.plan(place, allowed))
@@ -466,79 +468,57 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     got = {(int(s), frozenset((body(a), body(b))))
            for s, a, b in zip(cand.states, cand.ga, cand.gb)}
     fixed = {o.name for o in objs} - {"stick0"}        # checked once per batch, not per state
+    settled = set(cand.states[cand.sure].tolist())
     missing = [(i, a, b) for i in range(500) for a, b, _ in w.check(Q[i], attached=held).pairs
-               if (i, frozenset((a, b))) not in got and not {a, b} <= fixed]
-    assert missing == []
+               if (i, frozenset((a, b))) not in got and not {a, b} <= fixed
+               and i not in settled]
+    assert missing == [] and 10 < len(settled) < 400
     assert w.stats.states >= 6000 and w.stats.sure > 0
     # the convex stage (GJK on the hulls) rules out a fifth or more of what the covers leave
     assert w.stats.fine_pairs < 0.8 * w.stats.cover_pairs, w.stats
 
 
 def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
-    """The rows the checker settles with no fcl query (a link mesh's hull vertex deeper than
-    the tolerance + SURE_DEPTH inside a box, :meth:`CollisionWorld._sure`) are colliding pairs
-    of exact fcl, with a held box and at a tolerance; the built module's answers equal the
-    JIT's and it takes the types the checker passes; and the states it settles save queries
-    (same answers without it)."""
-    import numba
-
-    from tmpc.compiler import aot
+    """The pairs the pass marks sure to collide (a link mesh's hull vertex deeper than the
+    tolerance + SURE_DEPTH inside a box, settled with no fcl query) are colliding pairs of exact
+    fcl, with a held box and at a tolerance; each is its state's last candidate; and the states
+    they settle save queries (same answers with the test switched off)."""
     from tmpc.runtime.collision import CollisionWorld, spheres
-    from tmpc.runtime.collision import pass_kernel as jit
-    from tmpc.runtime.collision import world as cw
     model, fk = pr2_mobile
-    module, why = aot.obtain(spheres.PASS_KERNEL)
-    assert module is not None, why
-    sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)["sure"])
     sc = mobile_scene(model, tables_and_sticks(3, 1.2))
     Q = random_states(model, np.random.default_rng(8), 1500)
     body = lambda w, g: w.bodies[w.geoms[g].body].name
-    seen = []
-
-    def typed(*args):
-        seen.append(tuple(numba.typeof(a) for a in args))
-        return module.sure(*args)
-
     for tol, att in ((0.0, None), (0.02, {"stick0": (TOOL, np.eye(4))})):
         w = CollisionWorld(sc, model, tolerance=tol)
         fp = w.first_pass()
-        place, allowed = w.placements(attached=att)
-        plan = fp.plan(place, allowed)
-        cand = fp.candidates(Q, plan)
-        poses = w._moving_poses(cand, plan)
-        got = []
-        seen.clear()
-        state = dict(spheres._KERNEL_STATE)
-        try:
-            for fn in (typed, jit.sure):
-                spheres._KERNEL_STATE["sure"] = fn
-                got.append(w._sure(cand, plan, *poses))
-        finally:
-            spheres._KERNEL_STATE.update(state)
-        sure = got[0]
-        assert (sure == got[1]).all() and seen == [tuple(sig.args)]
+        cand = fp.candidates(Q, fp.plan(*w.placements(attached=att)))
+        sure = cand.sure
         assert 30 < sure.sum() < len(sure)
+        rows = np.nonzero(sure)[0]
+        rows = rows[rows + 1 < len(sure)]
+        assert (cand.states[rows + 1] != cand.states[rows]).all()     # its state's last pair
         for s, a, b in zip(cand.states[sure], cand.ga[sure], cand.gb[sure]):
             pairs = {frozenset(p[:2]) for p in w.check(Q[s], attached=att).pairs}
             assert frozenset((body(w, a), body(w, b))) in pairs
-        # the same answers with the test off, and more queries
         ok = w.check_batch(Q, attached=att)
         off = CollisionWorld(sc, model, tolerance=tol)
-        old = cw.SURE_DEPTH
+        old = spheres.SURE_DEPTH
         try:
-            cw.SURE_DEPTH = math.inf
+            spheres.SURE_DEPTH = math.inf
             assert (off.check_batch(Q, attached=att) == ok).all()
         finally:
-            cw.SURE_DEPTH = old
+            spheres.SURE_DEPTH = old
         assert w.stats.sure > 0 and off.stats.sure == 0
         assert w.stats.queries < 0.9 * off.stats.queries, (w.stats, off.stats)
 
 
-def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile):
+def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile, monkeypatch):
     """The compiled pass writes candidates into arrays of 4 per state and starts again with
     larger ones when they fill up: a batch buried in a box (most links a candidate in every
-    state) gives, state for state, the candidates of the same states passed one at a time."""
-    from tmpc.runtime.collision import CollisionWorld
+    state; no pair taken as sure to collide, which would end each state's list) gives, state
+    for state, the candidates of the same states passed one at a time."""
+    from tmpc.runtime.collision import CollisionWorld, spheres
+    monkeypatch.setattr(spheres, "SURE_DEPTH", math.inf)
     model, fk = pr2_mobile
     objs = [box("slab", (0.0, 0.0, 0.8), (1.0, 1.0, 0.6)),
             box("post", (0.3, 0.0, 1.0), (0.1, 0.1, 0.5), True)]
@@ -674,7 +654,7 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
                 got.append(fp.candidates(Q, plan))
             a, b = got
             assert len(a.states) > 100
-            for f in ("states", "ga", "gb"):
+            for f in ("states", "ga", "gb", "sure"):
                 assert (getattr(a, f) == getattr(b, f)).all()
             assert a.coarse == b.coarse
     finally:
