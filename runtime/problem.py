@@ -94,17 +94,33 @@ class _Loads:
     calling thread as well: each call runs once, on whichever thread takes it first."""
 
     def __init__(self, calls: list) -> None:
-        self._todo = collections.deque(calls)
-        self._total, self._finished, self._errors = len(calls), 0, []
+        self._todo = collections.deque()
+        self._total, self._finished, self._errors = 0, 0, []
         self._cv = threading.Condition()
-        threading.Thread(target=self._work, name="tmpc-warm-up", daemon=True).start()
+        self._working = False              # is the background thread taking calls?
+        self.add(calls)
 
     def __len__(self) -> int:
         return self._total
 
-    def _take(self):
+    def add(self, calls) -> None:
+        """More calls, after those given before; the background thread (again, if it had run
+        out of calls) takes them, one at a time as ever."""
         with self._cv:
-            return self._todo.popleft() if self._todo else None
+            self._todo.extend(calls)
+            self._total += len(calls)
+            start = bool(self._todo) and not self._working
+            self._working = self._working or start
+        if start:
+            threading.Thread(target=self._work, name="tmpc-warm-up", daemon=True).start()
+
+    def _take(self, worker: bool = False):
+        with self._cv:
+            if self._todo:
+                return self._todo.popleft()
+            if worker:
+                self._working = False      # under the lock: add() starts a new thread
+            return None
 
     def _run(self, call) -> None:
         try:
@@ -118,7 +134,7 @@ class _Loads:
                 self._cv.notify_all()
 
     def _work(self) -> None:
-        while (call := self._take()) is not None:
+        while (call := self._take(worker=True)) is not None:
             self._run(call)
 
     def finish(self, progress=None) -> None:
@@ -140,7 +156,11 @@ class _Loads:
 class PlanningProblem:
     """Everything a TMP planner needs about one problem (see the module docstring)."""
 
-    def __init__(self, world, tolerance: float | None = None, iterations: int = 15):
+    def __init__(self, world, tolerance: float | None = None, iterations: int = 15,
+                 warm_rng: np.random.Generator | None = None):
+        """``warm_rng``: begin :meth:`start_warm_up`'s kernel loads with it as soon as the
+        kernels exist, before the collision world is built (a run's setup: the loads, which
+        mostly wait on XLA, overlap that work and the planner's making)."""
         if world.program is None or world.program.problem is None:
             raise InputError(error("E820", "`tmpc run` needs a domain and a problem: give a run "
                                    "configuration (manifest TOML, planet TOML, tmit-star spec)",
@@ -156,9 +176,6 @@ class PlanningProblem:
         self.ground = self.compiled.ground
         self._check_objects()
         self.tolerance = collision_tolerance(world.config) if tolerance is None else tolerance
-        t = time.perf_counter()
-        self.collision = collision_world(world, self.compiled, self.tolerance)
-        self.timers.compile += time.perf_counter() - t
         s0 = initial_state(world.scene, self.model)
         self.q0 = np.asarray(s0.q, float)
         self.initial = self.make_mode(0, self.ground.init, s0.poses, s0.held)
@@ -172,6 +189,11 @@ class PlanningProblem:
         self._warming: _Loads | None = None    # the warm-up's kernel loads, once begun
         #: how the collision first pass runs (:meth:`warm_up` says), None before / without one
         self.collision_pass: str | None = None
+        if warm_rng is not None:
+            self.start_warm_up(warm_rng)
+        t = time.perf_counter()
+        self.collision = collision_world(world, self.compiled, self.tolerance)
+        self.timers.compile += time.perf_counter() - t
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
@@ -238,8 +260,10 @@ class PlanningProblem:
         clutter pb_4, for 1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3
         interleaved runs). (The kinematics at two padded batch sizes were loaded here too, until
         the collision checker's kinematics became a compiled loop of its own.) ``also``: more
-        calls, after the projectors (a planner's own set-up, ``warm_up_calls``)."""
+        calls, after the projectors (a planner's own set-up, ``warm_up_calls``); given once the
+        loads have begun, they follow them."""
         if self._warming is not None:
+            self._warming.add(list(also))
             return
         prepare_kernel()   # a machine's first run: the collision kernels build meanwhile
         starts = self.uniform(rng, PROJECTION_BATCH)

@@ -63,3 +63,33 @@ def test_the_optimal_planners_task_planner_is_built_by_the_warm_up(clutter_world
     assert a.status == b.status == "solved"
     assert [act for _, _, act in a.path] == [act for _, _, act in b.path]
     assert all(np.array_equal(qa, qb) for (qa, _, _), (qb, _, _) in zip(a.path, b.path))
+
+
+def test_calls_added_later_run_once_even_after_the_thread_ran_out():
+    """``add``: calls given after the loads began run once each, on a new background thread
+    when the first had already finished its calls, and ``finish`` waits for all of them."""
+    ran = []
+    lock = threading.Lock()
+    pause = threading.Event()
+
+    def call(i):
+        def run():
+            with lock:
+                ran.append((i, threading.current_thread().name))
+        return run
+
+    loads = _Loads([call(0)])
+    for _ in range(500):                       # the first thread runs out of calls
+        if ran and not loads._working:
+            break
+        pause.wait(0.01)
+    assert [i for i, _ in ran] == [0] and not loads._working
+    loads.add([call(1), call(2)])
+    loads.add([])
+    for _ in range(500):                       # taken without finish(): a new thread
+        if len(ran) == 3:
+            break
+        pause.wait(0.01)
+    loads.finish()
+    assert sorted(i for i, _ in ran) == [0, 1, 2] and len(loads) == 3
+    assert {name for _, name in ran} == {"tmpc-warm-up"}
