@@ -170,3 +170,54 @@ def test_unknown_entity_or_joint_is_a_clear_error(tabletop):
         ir.Const(1.0)), ir.BOOL)
     with pytest.raises(KernelError, match="ghost"):
         condition_kernel(bad, kw)
+
+
+@pytest.mark.parametrize("shape", ["ball", "halving"])
+def test_projector_stops_early_with_the_fixed_loops_result(shape):
+    """The projector leaves its loop once a start's distance is 0 (a batch once all have):
+    every start ends where the plain loop of Newton steps, all ``n`` of them, ends. ``ball``:
+    Newton overshoots into the set at once (distance exactly 0) but from the centre (no
+    gradient); ``halving``: the distance shrinks fourfold a step and is never 0."""
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.kernels.project import projector_fn
+    jnp = configured().numpy
+    lo, hi = np.full(3, -2.0), np.full(3, 2.0)
+
+    def kernel(q, T, par, args):         # the set: outside the unit ball
+        r2 = (q * q).sum()
+        d = jnp.maximum(0.0, 1.0 - r2) if shape == "ball" else \
+            jnp.maximum(0.0, 1.0 - jnp.sqrt(r2 + 1e-300)) ** 2
+        return d <= 0.0, d
+
+    def distance_grad(q):
+        r = float(np.sqrt(q @ q))
+        if shape == "ball":
+            d = max(0.0, 1.0 - r * r)
+            return d, (-2.0 * q if d > 0 else np.zeros(3))
+        d = max(0.0, 1.0 - r) ** 2
+        return d, (-2.0 * (1.0 - r) * q / r if d > 0 else np.zeros(3))
+
+    def plain(q, n):
+        q = np.clip(q, lo, hi)
+        for _ in range(n):
+            d, g = distance_grad(q)
+            stuck = ((q <= lo + 1e-9) & (g > 0)) | ((q >= hi - 1e-9) & (g < 0))
+            g = np.where(stuck, 0.0, g)
+            gg = float(g @ g)
+            q = np.clip(q + (-d * g / gg if gg > 1e-12 else 0.0), lo, hi)
+        return q
+
+    starts = np.array([[0.0, 0.0, 0.0], [0.9, 0.1, 0.0], [0.05, -0.02, 0.01],
+                       [1.5, 0.0, 0.0], [0.3, 0.3, 0.3]])
+    if shape == "halving":
+        starts[0] = [0.2, 0.1, -0.1]
+    project = configured().jit(projector_fn(kernel, lo, hi))
+    for n in (0, 1, 3, 12):
+        Q, holds, _ = project(starts, None, None, None, np.int64(n))
+        want = np.array([plain(q, n) for q in starts])
+        assert np.allclose(np.asarray(Q), want, rtol=0, atol=1e-9), (n, np.asarray(Q), want)
+        assert np.array_equal(np.asarray(holds), [distance_grad(q)[0] <= 0 for q in want])
+    if shape == "ball":
+        assert not np.asarray(holds)[0] and np.asarray(holds)[1:].all()
+    else:                                     # only the start outside holds
+        assert np.array_equal(np.asarray(holds), [False, False, False, True, False])
