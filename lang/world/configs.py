@@ -53,6 +53,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "max_steps": (int, "longest task plan tried (tmit-star: 100)"),
     "batch_size": (int, "samples per mode per batch (tmit-star: 50)"),
     "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
+    "projection_iterations": (int, "projector steps per transition attempt of the optimal "
+                                   "planner (default 30)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

@@ -115,6 +115,9 @@ class OptimalOptions:
     shortcut_points: int = 16          # ... between points cutting its edges into this many pieces
     shortcut_rounds: int = 3           # ... and again on the shortened segment
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
+    #: projector steps per transition attempt (the unified planner takes the problem's 15):
+    #: tmit-star's putdowns need more, and fewer batches pay for them (docs/planning.md)
+    projection_iterations: int = 30
     #: > 0: with no solution yet, the absolute cap grows by its first value every this many
     #: batches (tmpc's; tmit-star's caps never grow)
     cap_growth: int = 10
@@ -224,7 +227,7 @@ class OptimalPlanner:
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "OptimalPlanner":
         """The registry's factory: ``batch_size``, ``batch_budget``, ``min_steps``,
-        ``max_steps`` from the run configuration (a tmit-star spec or a manifest's
+        ``max_steps``, ``projection_iterations`` from the run configuration (a tmit-star spec or a manifest's
         [planner]); the command line's ``batch_size``, ``rewire``, ``first_solution`` and
         ``until_converged`` win. E825 for a value out of range."""
         config = problem.world.config
@@ -238,13 +241,18 @@ class OptimalPlanner:
             first_solution=bool(over.get("first_solution", False)),
             until_converged=bool(over.get("until_converged", False)),
             min_steps=int(params.get("min_steps", base.min_steps)),
-            max_steps=int(params.get("max_steps", base.max_steps)))
+            max_steps=int(params.get("max_steps", base.max_steps)),
+            projection_iterations=int(params.get("projection_iterations",
+                                                 base.projection_iterations)))
         for name, value, ok in (("batch size", opts.batch_size, opts.batch_size >= 1),
                                 ("batch budget", opts.batch_budget, opts.batch_budget >= 1),
-                                ("rewire factor", opts.rewire, opts.rewire > 0)):
+                                ("rewire factor", opts.rewire, opts.rewire > 0),
+                                ("projection iterations", opts.projection_iterations,
+                                 opts.projection_iterations >= 1)):
             if not ok:
                 raise InputError(error("E825", f"{name} {value} is out of range", None,
-                                       "batch size and budget >= 1, rewire factor > 0"))
+                                       "batch size, budget and projection iterations >= 1, "
+                                       "rewire factor > 0"))
         return cls(problem, seed=seed, options=opts)
 
     # ---- vertices and modes ----------------------------------------------------------------
@@ -464,7 +472,8 @@ class OptimalPlanner:
                 break
             part = starts[lo:lo + 16]
             self.counts["projections"] += len(part)
-            Qp, holds, dist_p = p.project_raw(mode, tr.action, part)
+            Qp, holds, dist_p = p.project_raw(mode, tr.action, part,
+                                              iterations=self.opt.projection_iterations)
             ok = holds.copy()
             if ok.any():
                 ok[ok] = p.valid_batch(mode, Qp[ok])

@@ -430,3 +430,37 @@ def test_time_limit_without_a_solution_is_partial(clutter_problem_1):
     assert result.status == "partial" and result.stats["cost"] is None
     assert len(result.path) >= 1
     assert np.array_equal(result.path[0][0], clutter_problem_1.q0)
+
+
+def test_projection_iterations_come_from_the_configuration(clutter_problem_1, monkeypatch):
+    """``projection_iterations`` of a run configuration reaches every projection of a
+    transition (the distance pre-checks stay at 0 steps); below 1 it is E825."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from tmpc.lang.diagnostics import TmpcError
+    problem = clutter_problem_1
+    assert OptimalPlanner.from_options(problem, 0, {}).opt.projection_iterations == \
+        OptimalOptions().projection_iterations == 30
+
+    def configured(value):
+        config = replace(problem.world.config, params=(("projection_iterations", value),))
+        monkeypatch.setattr(problem, "world", SimpleNamespace(config=config))
+
+    configured(0)
+    with pytest.raises(TmpcError) as exc:
+        OptimalPlanner.from_options(problem, 0, {})
+    assert exc.value.diagnostics[0].code == "E825"
+    configured(7)
+    planner = OptimalPlanner.from_options(problem, 1, {"first_solution": True})
+    monkeypatch.undo()
+    steps = []
+    project_raw = problem.project_raw
+
+    def spy(mode, action, starts, iterations=None):
+        steps.append(iterations)
+        return project_raw(mode, action, starts, iterations=iterations)
+
+    monkeypatch.setattr(problem, "project_raw", spy)
+    assert planner.solve(60.0).status == "solved"
+    assert set(steps) == {0, 7}
