@@ -58,6 +58,9 @@ class KernelBank:
         self._skipped_ok: frozenset = frozenset()
         self.stats = BankStats()
         self._lock = threading.Lock()
+        #: serialized kernel -> its jitted call: keys with byte-identical kernels (tmit-star's
+        #: shelves: pick-lower, pick-top and pick-upper) share one executable, loaded once
+        self._loaded: dict[bytes, Callable] = {}
 
     def function(self, key: str, build: Callable[[], Callable], spec: Sequence[ArgSpec],
                  unexportable: Callable[[], str | None] | None = None) -> "BankFunction":
@@ -77,17 +80,25 @@ class KernelBank:
     def has_exported(self, key: str) -> bool:
         return key in self._exported
 
+    def exported(self, key: str) -> bytes | None:
+        """The serialized kernel of ``key`` (None: none exported): equal bytes, one kernel."""
+        return self._exported.get(key)
+
     def _resolve(self, fn: "BankFunction") -> Callable:
         jax = configured()
         data = self._exported.get(fn.key)
         if data is not None:
+            same = self._loaded.get(data)
+            if same is not None:
+                return same
             from jax import export  # the export machinery, only when kernels are loaded
             t = time.perf_counter()
             exp = export.deserialize(bytearray(data))
             self.stats.deserialized += 1
             self.stats.seconds_deserialize += time.perf_counter() - t
-            return _without_lapack(jax.jit(exp.call)) if b"lapack" not in data else \
-                jax.jit(exp.call)
+            jitted = self._loaded[data] = _without_lapack(jax.jit(exp.call)) \
+                if b"lapack" not in data else jax.jit(exp.call)
+            return jitted
         if self._source is not None and fn.key not in self._skipped_ok:
             warnings.warn(f"kernel {fn.key} is not in {self._source}: traced from its sources",
                           stacklevel=3)

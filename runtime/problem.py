@@ -268,10 +268,16 @@ class PlanningProblem:
         prepare_kernel()   # a machine's first run: the collision kernels build meanwhile
         starts = self.uniform(rng, PROJECTION_BATCH)
         mode = self.initial
-        calls = []
+        calls, kernels = [], set()
         for action in {a.schema: a for a in self.ground.actions
                        if self.has_geometry(a)}.values():
             formula, proj, _ = self.projector(action.schema)
+            # schemas whose projectors are the same kernel share its executable: one load
+            same = self.compiled.bank.exported(
+                f"{self._raw_projectors[formula.key].key}@{PROJECTION_BATCH}")
+            if same is not None and same in kernels:
+                continue
+            kernels.add(same)
             calls.append((proj, self.compiled.bind_args(formula, list(action.args))))
         if self.goal_formula() is not None:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))

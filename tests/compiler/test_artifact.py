@@ -102,6 +102,32 @@ def test_exported_kernels_equal_rebuilt_ones(artifact):
     assert traced.bank.stats.traced >= 2
 
 
+def test_equal_kernels_share_one_executable(artifact):
+    """Keys whose serialized kernels are byte-identical resolve to one jitted call (one load);
+    a different kernel to its own; the shared call computes what each key's kernel does."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.compiler.bank import KernelBank
+    from tmpc.compiler.kernels import state_inputs
+    from tmpc.compiler.state import initial_state
+    world = open_world(artifact)
+    compiled = compile_world(world)
+    f, g = compiled.predicate("reach"), compiled.predicate("over")
+    reach, over = (compiled.bank.exported(f"cond/{x.key}") for x in (f, g))
+    assert reach is not None and over is not None and reach != over
+    bank = KernelBank({"a": reach, "b": bytes(reach), "c": over}, "test")
+    spec = [((compiled.model.dof,), "float64")]
+    fns = {k: bank.function(k, lambda: pytest.fail("traced"), spec) for k in "abc"}
+    q, T, par = state_inputs(compiled.tables, initial_state(world.scene, compiled.model))
+    ids = compiled.bind_args(f, ["panda_hand_tcp", "red_cube"])
+    want = compiled.kernels(f)[0](q, T, par, ids)
+    for k in "ab":
+        got = fns[k](q, T, par, ids)
+        assert bool(got[0]) == bool(want[0]) and float(got[1]) == float(want[1])
+    fns["c"](q, T, par, compiled.bind_args(g, ["panda_hand_tcp", "tray"]))
+    assert fns["a"]._jitted is fns["b"]._jitted is not fns["c"]._jitted
+    assert bank.stats.deserialized == 2 and bank.stats.traced == 0
+
+
 def test_bad_artifacts_are_rejected_clearly(artifact, tmp_path):
     truncated = tmp_path / "t.tmpa"
     truncated.write_bytes(artifact.read_bytes()[:5000])
