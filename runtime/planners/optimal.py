@@ -227,9 +227,9 @@ class OptimalPlanner:
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "OptimalPlanner":
         """The registry's factory: ``batch_size``, ``batch_budget``, ``min_steps``,
-        ``max_steps``, ``projection_iterations`` from the run configuration (a tmit-star spec or a manifest's
-        [planner]); the command line's ``batch_size``, ``rewire``, ``first_solution`` and
-        ``until_converged`` win. E825 for a value out of range."""
+        ``max_steps``, ``projection_iterations`` from the run configuration (a tmit-star spec
+        or a manifest's [planner]); the command line's ``batch_size``, ``rewire``,
+        ``first_solution`` and ``until_converged`` win. E825 for a value out of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
