@@ -2,8 +2,8 @@
 
 Independent of the planner's acceptance code for every fact it checks:
 
-* link poses: pinocchio (else yourdfpy's own kinematics), :mod:`.validate_kinematics` — not the
-  JAX forward kinematics of ``compiler/robot.py``;
+* link poses: pinocchio (else a walk down the validator's own joint tree),
+  :mod:`.validate_kinematics` — not the JAX forward kinematics of ``compiler/robot.py``;
 * collisions: raw python-fcl objects built here from the URDF and the scene,
   :mod:`.validate_collision` — not ``CollisionWorld`` and its sphere pass;
 * geometric predicates: the numpy AST interpreter :mod:`.evaluate` (Lua-defined ones: the Lua

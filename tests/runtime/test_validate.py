@@ -406,7 +406,7 @@ def test_independent_of_the_planners_acceptance_code():
             "from tmpc.compiler.artifact import open_world\n"
             "from tmpc.runtime.validate.core import validate_plan\n"
             f"r = validate_plan(open_world({str(TABLETOP)!r}), {str(PLANS / 'tabletop.json')!r})\n"
-            "assert r.valid and r.kinematics in ('pinocchio', 'yourdfpy')\n"
+            "assert r.valid and r.kinematics in ('pinocchio', 'urdf')\n"
             "bad = [m for m in sys.modules if m.split('.')[0] == 'jax' or m in\n"
             "       ('tmpc.runtime.collision.world', 'tmpc.runtime.collision.spheres', 'tmpc.compiler.ground.problem',\n"
             "        'tmpc.compiler.kernels.emit', 'tmpc.compiler.kernels.project')]\n"
@@ -416,12 +416,13 @@ def test_independent_of_the_planners_acceptance_code():
     assert r.stdout.strip() == "[]"
 
 
-def test_yourdfpy_kinematics_agree_with_pinocchio(tabletop):
+@pytest.mark.parametrize("backend", ["yourdfpy", "urdf"])
+def test_fallback_kinematics_agree_with_pinocchio(tabletop, backend):
     import numpy as np
 
     from tmpc.runtime.validate import Kinematics, full_joint_values
     pytest.importorskip("pinocchio")
-    other = Kinematics(tabletop.desc, "yourdfpy")
+    other = Kinematics(tabletop.desc, backend)
     rng = np.random.default_rng(0)
     for _ in range(3):
         vals = {j.name: rng.uniform(j.lower, j.upper) for j in tabletop.desc.joints
@@ -429,6 +430,32 @@ def test_yourdfpy_kinematics_agree_with_pinocchio(tabletop):
         vals = full_joint_values(tabletop.desc, vals)
         assert np.allclose(tabletop.kin.poses(np.eye(4), vals), other.poses(np.eye(4), vals),
                            atol=1e-9)
+
+
+def test_the_tree_walk_agrees_with_yourdfpy_on_the_pr2():
+    """The validator's own kinematics without pinocchio (``urdf``: a walk down its joint tree)
+    against yourdfpy's scene graph on the PR2: 82 links, mimic gripper joints, continuous and
+    prismatic joints, a moved root."""
+    import numpy as np
+
+    from tests.support import CLUTTER
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.validate import Kinematics, full_joint_values
+    from tmpc.runtime.validate.kinematics import read_urdf, urdf_path
+    desc = read_urdf(urdf_path(open_world(CLUTTER).scene))
+    assert {j.type for j in desc.joints if j.movable} >= {"revolute", "continuous", "prismatic"}
+    assert any(j.mimic is not None for j in desc.joints)
+    walk, ref = Kinematics(desc, "urdf"), Kinematics(desc, "yourdfpy")
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        vals = full_joint_values(desc, {
+            j.name: rng.uniform(-3, 3) if j.lower is None else rng.uniform(j.lower, j.upper)
+            for j in desc.joints if j.movable and j.mimic is None})
+        T = np.eye(4)
+        T[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        T[:3, :3] *= np.linalg.det(T[:3, :3])
+        T[:3, 3] = rng.normal(size=3)
+        assert np.allclose(walk.poses(T, vals), ref.poses(T, vals), atol=1e-12, rtol=0)
 
 
 def test_a_plan_for_another_problem_is_said_so_first(tmp_path):
