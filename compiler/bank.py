@@ -175,6 +175,10 @@ class BankFunction:
                                                          self.unexportable)
         return self
 
+    def exported(self, batch: int) -> bytes | None:
+        """The serialized kernel a call with ``batch`` states runs (None: none exported)."""
+        return self.bank.exported(self._sizes.get(batch, self).key)
+
     def python(self) -> Callable:
         """The traceable Python function (built on first use: this lowers IR)."""
         if self._python is None:

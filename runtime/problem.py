@@ -110,7 +110,8 @@ class _Loads:
             self._todo.extend(calls)
             self._total += len(calls)
             start = bool(self._todo) and not self._working
-            self._working = self._working or start
+            if start:
+                self._working = True
         if start:
             threading.Thread(target=self._work, name="tmpc-warm-up", daemon=True).start()
 
@@ -273,8 +274,7 @@ class PlanningProblem:
                        if self.has_geometry(a)}.values():
             formula, proj, _ = self.projector(action.schema)
             # schemas whose projectors are the same kernel share its executable: one load
-            same = self.compiled.bank.exported(
-                f"{self._raw_projectors[formula.key].key}@{PROJECTION_BATCH}")
+            same = self._raw_projectors[formula.key].exported(PROJECTION_BATCH)
             if same is not None and same in kernels:
                 continue
             kernels.add(same)

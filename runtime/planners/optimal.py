@@ -704,7 +704,8 @@ class OptimalPlanner:
         self.counts["searches"] += 1
         g = self._graph()
         self._graph_seconds = time.perf_counter() - t
-        h = _graphs()[1](g.T.tocsr(), directed=True, indices=sorted(self.goals), min_only=True)
+        _, dijkstra = _graphs()
+        h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(self.goals), min_only=True)
         improved = self._forward(g, h)
         if self.best_path is not None:
             self._later += 1

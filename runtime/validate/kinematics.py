@@ -6,9 +6,9 @@ independent implementation ``tests/compiler/test_fk.py`` checks the JAX kinemati
 pinocchio, a walk down the joint tree of this module's own description (``urdf``: each joint's
 origin times its motion about its axis) stands in; yourdfpy's scene-graph kinematics
 (``update_cfg`` / ``get_transform``, backend ``yourdfpy``) is the reference its tests hold it to.
-It took 7.3 ms per PR2 state, 0.74 s of the 1.2 s a `tmpc run --html` spent writing the
-bundled example's page (2026-12-04); the walk takes ~0.2 ms. All three are independent of the
-planner's generated JAX code.
+yourdfpy's took ~6 ms per PR2 state whose joints changed, and `tmpc run --html` 0.64 s to write
+the bundled example's page; the walk takes ~0.5 ms a state, the page 0.11 s (2026-12-04). All
+three are independent of the planner's generated JAX code.
 
 The robot's root link is placed at a world pose given per state (the plan's ``base_pose``): the
 validator never reconstructs it from (x, y, yaw) except to interpolate a motion
@@ -243,31 +243,26 @@ class Kinematics:
                                         load_collision_meshes=False)
 
     def _init_urdf(self) -> None:
-        """The joints parent before child (a breadth-first walk from the root)."""
+        """The joints parent before child (a walk from the root)."""
         below: dict[str, list[UJoint]] = {}
         for j in self.desc.joints:
             below.setdefault(j.parent, []).append(j)
         order, todo = [], [self.desc.root]
         while todo:
-            link = todo.pop(0)
-            for j in below.get(link, ()):
+            for j in below.get(todo.pop(), ()):
                 order.append(j)
                 todo.append(j.child)
         self._order = order
 
     def _walk(self, values: dict[str, float], out: np.ndarray) -> None:
-        """Root-relative link poses into ``out``: every joint at its value in ``values``
-        (:func:`full_joint_values`); a mimic joint without one follows its source as yourdfpy
-        has it (multiplier x source + offset); a link the walk does not reach stays at the
-        root."""
+        """Root-relative link poses into ``out``, every movable joint at its value in
+        ``values`` (:func:`full_joint_values`: mimic joints included; missing: 0, as with
+        pinocchio); a link the walk does not reach stays at the root."""
         at = {self.desc.root: np.eye(4)}
         for j in self._order:
             M = j.origin
             if j.movable:
-                v = values.get(j.name)
-                if v is None:
-                    src, mult, off = j.mimic if j.mimic is not None else (None, 0.0, 0.0)
-                    v = mult * values.get(src, 0.0) + off
+                v = values.get(j.name, 0.0)
                 m = np.eye(4)
                 if j.type == "prismatic":
                     m[:3, 3] = j.axis * v
