@@ -51,13 +51,16 @@ BUILD_SECONDS = 600
 class Kernel:
     """The njit functions of ``module`` (a dotted name) exported as ``exports``: (function,
     signature) pairs, numba's signature syntax; arguments of other types are a TypeError, not
-    a new build. One module, one build, however many functions."""
+    a new build. One module, one build, however many functions. ``nrt=False`` builds without
+    numba's reference counting: for exports that allocate no array (their scratch space is
+    passed in), whose loops then carry no atomic incref/decref of every array a helper takes."""
 
     module: str
     exports: tuple[tuple[str, str], ...]
+    nrt: bool = True
 
     def digest(self) -> str:
-        return _digest(self.module, self.exports)
+        return _digest(self.module, self.exports, self.nrt)
 
     def name(self) -> str:
         return f"_tmpc_aot_{self.module.rsplit('.', 1)[-1]}_{self.digest()}"
@@ -70,13 +73,13 @@ class Kernel:
 
 
 @cache
-def _digest(module: str, exports: tuple[tuple[str, str], ...]) -> str:
+def _digest(module: str, exports: tuple[tuple[str, str], ...], nrt: bool = True) -> str:
     spec = importlib.util.find_spec(module)          # the source, without importing numba
     if spec is None or spec.origin is None:
         raise ImportError(f"no module {module}")
     h = hashlib.sha256(Path(spec.origin).read_bytes())
     for part in (*(x for pair in exports for x in pair), _version("numba"), _version("numpy"),
-                 sys.version, platform.machine()):
+                 sys.version, platform.machine(), "nrt" if nrt else "no-nrt"):
         h.update(b"\0" + part.encode())
     return h.hexdigest()[:16]
 
@@ -105,7 +108,7 @@ def prepare(kernel: Kernel) -> None:
     kernel.path().parent.mkdir(parents=True, exist_ok=True)
     _BUILDS[kernel] = subprocess.Popen(
         [sys.executable, "-m", "tmpc.compiler.aot", kernel.module,
-         *(x for pair in kernel.exports for x in pair)],
+         "nrt" if kernel.nrt else "no-nrt", *(x for pair in kernel.exports for x in pair)],
         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
@@ -158,6 +161,7 @@ def build(kernel: Kernel) -> Path:
         cc.output_dir = str(work)
         cc.target_cpu = "host"        # built where it runs: this machine's instruction set
         cc.verbose = False
+        cc.use_nrt = kernel.nrt
         for function, signature in kernel.exports:
             cc.export(function, signature)(getattr(module, function).py_func)
         cc.compile()
@@ -172,8 +176,8 @@ def build(kernel: Kernel) -> Path:
 
 if __name__ == "__main__":           # the child process of prepare()
     try:
-        args = sys.argv[2:]
-        build(Kernel(sys.argv[1], tuple(zip(args[::2], args[1::2]))))
+        args = sys.argv[3:]
+        build(Kernel(sys.argv[1], tuple(zip(args[::2], args[1::2])), sys.argv[2] == "nrt"))
     except Exception as exc:  # noqa: BLE001 - the parent records the last line, falls back
         first = next((ln for ln in str(exc).splitlines() if ln.strip()), "")
         first = first.split(" If using conda")[0]        # numba's hint for conda users

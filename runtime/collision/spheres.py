@@ -524,6 +524,10 @@ class FirstPass:
         for row, (_, table) in enumerate(plan.tables):
             free[row] = table.free(Q)
         cap = max(64, 4 * n)
+        M, K = plan.cov.shape[:2]
+        scratch = (np.empty((M, 3)), np.empty((K, 3)), np.empty((K, 3)), np.empty((4, 3)),
+                   np.empty(3), np.empty(K, np.int64), np.empty(K, np.int64),
+                   np.empty(K, np.int64))
         while True:
             out = [np.empty(cap, np.int64) for _ in range(3)] + [np.empty(cap, bool)]
             args = (R, p, plan.fpos, plan.ball_c, plan.ball_r, plan.obb_c, plan.obb_R,
@@ -531,7 +535,7 @@ class FirstPass:
                     plan.bb_start, plan.bb_m, plan.box_R, plan.box_t, plan.box_h, plan.box_r,
                     plan.box_half, plan.mv, plan.box_geom, plan.hull_p, plan.hull_s,
                     plan.all_p, plan.all_s, plan.hull_r, plan.sure_ok, plan.box_x,
-                    self.world.tolerance + SURE_DEPTH, *out)
+                    self.world.tolerance + SURE_DEPTH, *out, *scratch)
             try:
                 got, coarse, covers = kernel(*args)
             except TypeError as exc:
@@ -557,11 +561,12 @@ PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
       "f8[:,:,::1], f8[:,::1], f8[:,:,::1], f8[:,::1], i8[::1], i8[:,::1], i8[::1], b1[:,::1], "
       "i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], f8[:,::1], f8[::1], f8[:,::1], i8[::1], "
       "i8[::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], f8[::1], b1[::1], f8[:,::1], f8, "
-      "i8[::1], i8[::1], i8[::1], b1[::1])")),
+      "i8[::1], i8[::1], i8[::1], b1[::1], f8[:,::1], f8[:,::1], f8[:,::1], f8[:,::1], f8[::1], "
+      "i8[::1], i8[::1], i8[::1])")),
     ("kinematics",
      ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
       "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
-      "f8[:,:,::1])"))))
+      "f8[:,:,::1])"))), nrt=False)
 #: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
 #: JIT) and why the JIT (None: the built module)
 _KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}
@@ -576,7 +581,8 @@ def empty_pass_args() -> tuple:
             np.zeros((1, 3, 3)), f, np.zeros((1, 1, 3)), np.zeros((1, 1)), i,
             np.zeros((0, 2), np.int64), e, np.zeros((0, 1), bool), i, e, np.zeros((0, 3, 3)),
             e3, e3, np.zeros(0), e3, i, e, e3, i, e3, i, np.zeros(0), np.zeros(1, bool), e3,
-            0.0, i.copy(), i.copy(), i.copy(), np.zeros(1, bool))
+            0.0, i.copy(), i.copy(), i.copy(), np.zeros(1, bool), f.copy(), f.copy(),
+            f.copy(), np.zeros((4, 3)), np.zeros(3), i.copy(), i.copy(), i.copy())
 
 
 def prepare_kernel() -> None:

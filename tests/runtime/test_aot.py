@@ -51,6 +51,16 @@ def test_a_damaged_module_is_removed_and_the_jit_used(kernel, monkeypatch):
     assert fn is jit.candidates and spheres.pass_kernel("kinematics") is jit.kinematics
 
 
+def test_reference_counting_is_part_of_a_build_s_name(kernel):
+    """A module built without numba's reference counting is another module (the collision
+    pass is one: its scratch arrays come from the caller)."""
+    from tmpc.runtime.collision import spheres
+    k = spheres.PASS_KERNEL
+    assert not k.nrt
+    counted = kernel.Kernel(k.module, k.exports)
+    assert counted.nrt and counted.name() != k.name() and counted.path() != k.path()
+
+
 def test_aot_off_uses_the_jit(kernel, monkeypatch):
     monkeypatch.setenv("TMPC_AOT", "0")
     assert kernel.obtain(kernel.Kernel("x", (("y", "z"),))) == (None, "TMPC_AOT=0")
