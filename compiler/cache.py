@@ -12,6 +12,8 @@
 * ``collision/`` — the collision first pass's sphere covers and pair tables, by robot, and
   collision meshes as arrays (with their convex hulls), by file contents;
 * ``robots/`` — parsed URDFs (:func:`robot_tree`), so a warm run imports no URDF parser;
+* ``viewer/`` — the validator's reads of URDFs and the viewer's decoded visual meshes, so a warm
+  `tmpc run --html` or `tmpc view` imports neither yourdfpy nor trimesh;
 * ``aot/`` — the collision pass built ahead of time into an extension module
   (:mod:`tmpc.compiler.aot`), so a warm run imports no numba; a failed build's reason;
 * ``numba/`` — numba's machine-code cache (:mod:`tmpc.compiler.numbacfg`).
@@ -51,6 +53,7 @@ PARTS = {"runs": "artifacts compiled for `tmpc run CONFIG`",
          "exports": "serialized kernels reused by `tmpc compile`",
          "collision": "collision meshes, sphere covers and pair tables of robots",
          "robots": "parsed URDFs",
+         "viewer": "the validator's URDF reads and the viewer's decoded meshes",
          "jax": "XLA's persistent compilation cache",
          "aot": ("the collision checker's kinematics and first pass compiled ahead of time for "
                  "this machine (or why the build failed)"),

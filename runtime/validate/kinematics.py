@@ -1,6 +1,7 @@
 """The validator's own robot model and forward kinematics, independent of :mod:`tmpc.compiler.robot`.
 
-The URDF is read here with yourdfpy directly (not through :mod:`tmpc.lang.world.robot`'s tree), and
+The URDF is read here with yourdfpy directly (not through :mod:`tmpc.lang.world.robot`'s tree; the
+reading is kept in the cache, :func:`read_urdf`), and
 link poses come from pinocchio (``buildModelFromUrdf`` + ``framesForwardKinematics``), the same
 independent implementation ``tests/compiler/test_fk.py`` checks the JAX kinematics against. Without
 pinocchio, a walk down the joint tree of this module's own description (``urdf``: each joint's
@@ -17,11 +18,16 @@ validator never reconstructs it from (x, y, yaw) except to interpolate a motion
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from tmpc.compiler.cache import cache_root, code_digest, package_version
 
 # Quaternion <-> matrix conversion is arithmetic, not kinematics: the validator shares numpy's
 # one copy (tmpc.compiler.rotations imports numpy only, nothing of the planner or JAX) and
@@ -29,7 +35,8 @@ import numpy as np
 # (pinocchio / yourdfpy), independent of tmpc.compiler.robot.
 from tmpc.compiler.rotations import quat_matrix as quat_matrix
 from tmpc.compiler.rotations import quat_of as quat_of
-from tmpc.lang.world import find_file, import_yourdfpy, load_urdf
+from tmpc.lang.fileio import atomic_write_text
+from tmpc.lang.world import example_robot_data_dir, find_file, import_yourdfpy, load_urdf
 
 
 @dataclass(frozen=True)
@@ -88,12 +95,94 @@ class RobotDescription:
 
 
 def urdf_path(scene) -> str:
-    """The resolved path of the scene's robot URDF (``package://`` and $TMPC_MESH_PATH)."""
-    from pathlib import Path
-    return load_urdf(scene.robot.urdf, Path(scene.path).parent, strict_meshes=False).path
+    """The resolved path of the scene's robot URDF (``package://`` and $TMPC_MESH_PATH), found
+    without parsing it (none found: the loader's E560, saying where it looked)."""
+    base = Path(scene.path).parent
+    found = find_file(str(scene.robot.urdf), base)
+    if found is None:
+        return load_urdf(scene.robot.urdf, base, strict_meshes=False).path
+    return str(found.resolve())
 
 
 def read_urdf(path: str | Path) -> RobotDescription:
+    """:func:`parse_urdf` through the cache (``viewer/``, JSON): yourdfpy and the trimesh it
+    imports took ~0.9 s of every `tmpc run --html` (2026-12-04). The key is the file's path and
+    contents, the mesh search path, yourdfpy's version and tmpc's code; an entry naming a mesh
+    file that is gone, or that cannot be read, is parsed again. A description with unresolved
+    meshes is not kept (they may appear)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return parse_urdf(path)           # the parser says what is wrong
+    h = hashlib.sha256(json.dumps([str(path), code_digest(), package_version("yourdfpy"),
+                                   os.environ.get("TMPC_MESH_PATH", ""),
+                                   os.environ.get("ROS_PACKAGE_PATH", ""),
+                                   str(example_robot_data_dir())]).encode())
+    h.update(hashlib.sha256(data).digest())
+    entry = cache_root() / "viewer" / f"urdf-{h.hexdigest()[:32]}.json"
+    try:
+        desc = _description_from_data(json.loads(entry.read_text("utf-8")))
+        if all(g.path is None or g.path.is_file()
+               for geoms in (*desc.collision.values(), *desc.visual.values()) for g in geoms):
+            return desc
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        pass
+    load_urdf(str(path), path.parent, strict_meshes=False)    # tmpc's diagnostics for bad input
+    desc = parse_urdf(path)
+    if not desc.missing_meshes:
+        try:
+            entry.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_text(entry, json.dumps(_description_to_data(desc)))
+        except OSError:
+            pass                          # a read-only cache is fine: just slower
+    return desc
+
+
+def _geom_to_data(g: UGeom) -> dict:
+    return {"kind": g.kind, "origin": g.origin.tolist(), "size": list(g.size),
+            "radius": g.radius, "length": g.length,
+            "path": None if g.path is None else str(g.path), "scale": list(g.scale),
+            "uri": g.uri, "rgba": None if g.rgba is None else list(g.rgba)}
+
+
+def _geom_from_data(d: dict) -> UGeom:
+    return UGeom(str(d["kind"]), np.asarray(d["origin"], float).reshape(4, 4),
+                 tuple(float(x) for x in d["size"]), float(d["radius"]), float(d["length"]),
+                 None if d["path"] is None else Path(d["path"]),
+                 tuple(float(x) for x in d["scale"]), str(d["uri"]),
+                 None if d["rgba"] is None else tuple(float(x) for x in d["rgba"]))
+
+
+def _description_to_data(desc: RobotDescription) -> dict:
+    return {"path": desc.path, "name": desc.name, "root": desc.root, "links": desc.links,
+            "joints": [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
+                        "origin": j.origin.tolist(), "axis": j.axis.tolist(),
+                        "lower": j.lower, "upper": j.upper,
+                        "mimic": None if j.mimic is None else list(j.mimic)}
+                       for j in desc.joints],
+            "collision": {k: [_geom_to_data(g) for g in v] for k, v in desc.collision.items()},
+            "visual": {k: [_geom_to_data(g) for g in v] for k, v in desc.visual.items()}}
+
+
+def _description_from_data(d: dict) -> RobotDescription:
+    def bound(x):
+        return None if x is None else float(x)
+    joints = [UJoint(str(j["name"]), str(j["type"]), str(j["parent"]), str(j["child"]),
+                     np.asarray(j["origin"], float).reshape(4, 4),
+                     np.asarray(j["axis"], float).reshape(3), bound(j["lower"]),
+                     bound(j["upper"]),
+                     None if j["mimic"] is None else (str(j["mimic"][0]), float(j["mimic"][1]),
+                                                      float(j["mimic"][2])))
+              for j in d["joints"]]
+    desc = RobotDescription(str(d["path"]), str(d["name"]), str(d["root"]),
+                            [str(x) for x in d["links"]], joints)
+    desc.collision = {str(k): [_geom_from_data(g) for g in v] for k, v in d["collision"].items()}
+    desc.visual = {str(k): [_geom_from_data(g) for g in v] for k, v in d["visual"].items()}
+    return desc
+
+
+def parse_urdf(path: str | Path) -> RobotDescription:
     """Read a resolved URDF file with yourdfpy; mesh URIs resolved as tmpc resolves them."""
     yourdfpy = import_yourdfpy()
     path = Path(path)

@@ -2,18 +2,24 @@
 and the world pose of every body at each plan state and along each straight motion
 (:class:`Poser`), from the validator's kinematics (:mod:`.validate_kinematics`).
 
-Meshes are loaded with trimesh (COLLADA files keep one part per material and its colour) and
-decimated by vertex clustering (:func:`decimate`) to a triangle budget per file.
+Meshes are loaded with trimesh (COLLADA files keep one part per material and its colour), kept in
+the cache as arrays (a warm page imports no trimesh), and decimated by vertex clustering (:func:`decimate`) to a triangle budget per file.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
+import json
 import math
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from tmpc.compiler.cache import cache_root, code_digest, package_version
+from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.runtime.plans import pose_matrix
 from tmpc.runtime.validate import (
     Kinematics,
@@ -81,23 +87,63 @@ _LOADED: dict = {}
 
 
 def load_visual(path: Path, scale) -> list[TriMesh]:
-    """The parts of a mesh file (one per material; COLLADA colours kept), scaled."""
+    """The parts of a mesh file (one per material; COLLADA colours kept), scaled: decoded by
+    trimesh once, then read back from the cache (:func:`_cached`)."""
     key = (str(path), tuple(scale))
     if key not in _LOADED:
-        import trimesh
         try:
-            loaded = trimesh.load(str(path))
-        except Exception:   # an unreadable visual mesh is shown as nothing, not an error
-            loaded = None
-        parts = []
-        meshes = loaded.dump() if isinstance(loaded, trimesh.Scene) else \
-            ([loaded] if isinstance(loaded, trimesh.Trimesh) else [])
-        for m in meshes:
-            if len(m.faces):
-                parts.append(TriMesh(np.asarray(m.vertices, float) * np.asarray(scale),
-                                     np.asarray(m.faces, np.int64), _mesh_color(m)))
-        _LOADED[key] = parts
+            data = Path(path).read_bytes()
+        except OSError:     # an unreadable visual mesh is shown as nothing, not an error
+            data = None
+        _LOADED[key] = [] if data is None else _cached(
+            ["file", Path(path).suffix.lower(), [float(x) for x in scale]], data,
+            lambda: _decode(path, scale))
     return _LOADED[key]
+
+
+def _decode(path: Path, scale) -> list[TriMesh]:
+    import trimesh
+    try:
+        loaded = trimesh.load(str(path))
+    except Exception:   # an unreadable visual mesh is shown as nothing, not an error
+        loaded = None
+    parts = []
+    meshes = loaded.dump() if isinstance(loaded, trimesh.Scene) else \
+        ([loaded] if isinstance(loaded, trimesh.Trimesh) else [])
+    for m in meshes:
+        if len(m.faces):
+            parts.append(TriMesh(np.asarray(m.vertices, float) * np.asarray(scale),
+                                 np.asarray(m.faces, np.int64), _mesh_color(m)))
+    return parts
+
+
+def _cached(key: list, data: bytes, make) -> list[TriMesh]:
+    """``make()``'s meshes through the cache (``viewer/``, npz, no pickle), by ``key`` (JSON),
+    ``data`` (a mesh file's contents), trimesh's version and tmpc's code: a warm page imports
+    no trimesh (~0.4-0.8 s, 2026-12-04). An entry that cannot be read is made again."""
+    h = hashlib.sha256(json.dumps([key, code_digest(), package_version("trimesh")]).encode())
+    h.update(hashlib.sha256(data).digest())
+    entry = cache_root() / "viewer" / f"mesh-{h.hexdigest()[:32]}.npz"
+    try:
+        with np.load(entry, allow_pickle=False) as z:
+            return [TriMesh(np.asarray(z[f"v{i}"], float), np.asarray(z[f"f{i}"], np.int64),
+                            tuple(float(c) for c in z[f"c{i}"])) for i in range(int(z["n"]))]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        pass
+    meshes = make()
+    arrays = {"n": np.int64(len(meshes))}
+    for i, m in enumerate(meshes):
+        arrays.update({f"v{i}": np.asarray(m.vertices, float),
+                       f"f{i}": np.asarray(m.faces, np.int64),
+                       f"c{i}": np.asarray(m.color, float)})
+    try:
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(entry, buf.getvalue())
+    except OSError:
+        pass                # a read-only cache is fine: just slower
+    return meshes
 
 
 def _mesh_color(m) -> tuple[float, float, float]:
@@ -131,15 +177,22 @@ def _decimated(parts: list[TriMesh], faces: int) -> list[TriMesh]:
 
 
 def primitive(kind: str, size=(), radius=0.0, length=0.0) -> TriMesh:
-    """A box (``size``: full extents), sphere or cylinder as triangles."""
-    import trimesh
-    if kind == "box":
-        m = trimesh.creation.box(extents=size)
-    elif kind == "sphere":
-        m = trimesh.creation.icosphere(subdivisions=2, radius=radius)
-    else:
-        m = trimesh.creation.cylinder(radius=radius, height=length, sections=28)
-    return TriMesh(np.asarray(m.vertices, float), np.asarray(m.faces, np.int64))
+    """A box (``size``: full extents), sphere or cylinder as triangles (trimesh's, through the
+    cache)."""
+    def make():
+        import trimesh
+        if kind == "box":
+            m = trimesh.creation.box(extents=size)
+        elif kind == "sphere":
+            m = trimesh.creation.icosphere(subdivisions=2, radius=radius)
+        else:
+            m = trimesh.creation.cylinder(radius=radius, height=length, sections=28)
+        return [TriMesh(np.asarray(m.vertices, float), np.asarray(m.faces, np.int64))]
+    key = ("primitive", kind, tuple(float(x) for x in size), float(radius), float(length))
+    if key not in _LOADED:
+        _LOADED[key] = _cached(list(key), b"", make)
+    (m,) = _LOADED[key]
+    return TriMesh(m.vertices, m.faces)
 
 
 def object_color(name: str, movable: bool) -> tuple[float, float, float]:

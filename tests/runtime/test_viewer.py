@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -115,6 +116,35 @@ def test_pr2_clutter_page_is_small(tmp_path):
     size = write_html(open_world(CLUTTER, with_program=False), plan, tmp_path / "c.html")
     assert size < 5_000_000
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.html"]     # no temporary left
+
+
+def test_a_warm_page_reads_the_urdf_and_meshes_from_the_cache(tmp_path):
+    """A world's second page imports neither yourdfpy nor trimesh (the validator's read of the
+    URDF and the decoded meshes come from the cache) and is the same page; damaged entries are
+    made again."""
+    code = ("import json, sys\n"
+            "from tmpc.compiler.artifact import open_world\n"
+            "from tmpc.runtime.viewer import write_html\n"
+            f"plan = json.loads(open({str(PLANS / 'tabletop.json')!r}).read())\n"
+            f"write_html(open_world({str(TABLETOP)!r}, with_program=False), plan, sys.argv[1])\n"
+            "print(json.dumps([m for m in ('yourdfpy', 'trimesh') if m in sys.modules]))\n")
+    env = {**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")}
+
+    def page(name: str) -> tuple[list, bytes]:
+        r = subprocess.run([sys.executable, "-c", code, str(tmp_path / name)], env=env,
+                           capture_output=True, text=True, timeout=300, check=False)
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout.strip().splitlines()[-1]), (tmp_path / name).read_bytes()
+
+    cold, first = page("a.html")
+    assert cold == ["yourdfpy", "trimesh"]
+    assert page("b.html") == ([], first)
+    entries = list((tmp_path / "cache" / "viewer").iterdir())
+    assert any(e.name.startswith("urdf-") for e in entries)
+    assert any(e.name.startswith("mesh-") for e in entries)
+    for e in entries:
+        e.write_bytes(b"damaged")
+    assert page("c.html") == (["yourdfpy", "trimesh"], first)
 
 
 def test_bare_state_array_page(tabletop, plan, tmp_path):
