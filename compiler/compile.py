@@ -230,7 +230,8 @@ class CompiledProgram:
         upper = np.asarray(self.model.upper)
         return self.bank.function(
             f"proj/{formula.key}",
-            lambda: projector_fn(self._condition(formula), lower, upper),
+            lambda: projector_fn(self._condition(formula), lower, upper,
+                                 wraps=np.asarray(self.model.wraps, bool)),
             [(("b", self.dof), F64), *self._mode_spec(), ((len(formula.params),), I64),
              ((), I64)], _host_calls(formula))
 

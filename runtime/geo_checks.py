@@ -63,7 +63,8 @@ def geometric_checks(world, budget_s: float = 60.0, seed: int = 0) -> list[Diagn
             break
         formula = compiled.action(name) if kind == "action" else compiled.predicate(name)
         kernel, _ = compiled.kernels(formula)
-        project = make_projector(kernel, model.lower, model.upper, iterations=30)
+        project = make_projector(kernel, model.lower, model.upper, iterations=30,
+                                 wraps=model.wraps)
         best = np.inf
         for args in instances:      # a condition may be false for one instance in the start
             ids = compiled.bind_args(formula, list(args))     # scene (an object not held yet)

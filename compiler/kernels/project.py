@@ -5,7 +5,9 @@ bounds, all starts at once (``vmap``), for at most a given number of iterations 
 which a start leaves once its distance is 0, and a batch once all its starts have). Each
 iteration takes the Newton step toward ``D = 0`` of the linearized distance (the minimum-norm
 ``dq`` with ``D + grad(D) . dq = 0``, i.e. ``dq = -D grad(D) / |grad(D)|^2``) over the coordinates
-not pinned at a bound, scaled by ``step`` and clipped into the joint bounds: for a distance built from comparisons this is a Gauss-Newton
+not pinned at a bound, scaled by ``step`` and clipped into the joint bounds (a coordinate that wraps
+around, a continuous joint or the base's yaw, is never pinned: it is taken modulo its period
+instead): for a distance built from comparisons this is a Gauss-Newton
 step on the violated constraints, which converges in a few iterations where a plain gradient
 step needs a hundred (measured in ``tests/bench``). A start is *converged* when its truth test
 holds; callers add their own acceptance (collision-free) and report why the rest were rejected.
@@ -29,22 +31,33 @@ class ProjectionResult:
 
 
 def make_projector(kernel, lower, upper, iterations: int = 40, step: float = 1.0,
-                   eps: float = 1e-12):
+                   eps: float = 1e-12, wraps=None):
     """A jitted ``project(Q0, obj_T, obj_parent, args) -> (Q, holds, distance)`` for ``kernel``
     (``kernel(q, obj_T, obj_parent, args) -> (truth, distance)``)."""
     jax = configured()
-    batched = projector_fn(kernel, lower, upper, step, eps)
+    batched = projector_fn(kernel, lower, upper, step, eps, wraps)
     n = np.int64(iterations)
     return jax.jit(lambda Q0, T, par, args: batched(Q0, T, par, args, n))
 
 
-def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12):
+def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12, wraps=None):
     """The traceable ``project(Q0 (B, n), obj_T, obj_parent, args, iterations ()) -> (Q, holds,
     distance)``; the iteration count is an argument, so one compiled projector serves every
-    caller (the planner's 15 iterations, ``tmpc sample --iterations``)."""
+    caller (the planner's 15 iterations, ``tmpc sample --iterations``). ``wraps`` (n,) bool:
+    the coordinates whose [lower, upper] is one period (continuous joints, the base's yaw).
+
+    Clipping those at their bounds, as before 2026-12-04, stalled the Newton steps at +-pi:
+    one batch of 16 putdown starts of the optimal planner on tmit-star's clutter pb_1 ended
+    with the PR2's forearm roll pinned there in 7; 4 held after 30 steps and 13 after 200,
+    wrapped 5 and 15 (the rest converge slowly, not stuck). The planners' times to a first
+    solution did not change beyond the noise."""
     jax = configured()
     jnp = jax.numpy
     lo, hi = jnp.asarray(lower), jnp.asarray(upper)
+    wrap = jnp.asarray(np.zeros(len(lower), bool) if wraps is None else np.asarray(wraps, bool))
+
+    def into_bounds(q):
+        return jnp.where(wrap, lo + jnp.mod(q - lo, hi - lo), jnp.clip(q, lo, hi))
 
     def dist(q, T, par, args):
         return kernel(q, T, par, args)[1]
@@ -58,18 +71,18 @@ def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12):
             # Active set: a coordinate at a bound whose step would leave the box is frozen, so
             # the step is spent on the coordinates that can move (clipping alone stalls; with
             # it PR2 `at` converges 94% instead of 62% in 10 iterations, measured).
-            stuck = ((q <= lo + 1e-9) & (g > 0)) | ((q >= hi - 1e-9) & (g < 0))
+            stuck = ~wrap & (((q <= lo + 1e-9) & (g > 0)) | ((q >= hi - 1e-9) & (g < 0)))
             g = jnp.where(stuck, 0.0, g)
             gg = (g * g).sum()
             dq = jnp.where(gg > eps, -d * g / jnp.where(gg > eps, gg, 1.0), 0.0)
-            return i + 1, jnp.clip(q + step * dq, lo, hi), d
+            return i + 1, into_bounds(q + step * dq), d
 
         # The carry's distance is the one at the step's start: a step from distance 0 is 0, so
         # a start stops right after it (the fixed loop's result: its later steps would all be
         # 0), and a batch (vmap) once all its starts have. One distance-and-gradient in the
         # loop's body and none outside it: a second copy doubled the executable and its load.
         n = jnp.asarray(iterations)
-        start = (jnp.zeros((), n.dtype), jnp.clip(q0, lo, hi), jnp.asarray(jnp.inf, q0.dtype))
+        start = (jnp.zeros((), n.dtype), into_bounds(q0), jnp.asarray(jnp.inf, q0.dtype))
         _, q, _ = jax.lax.while_loop(lambda c: (c[0] < n) & (c[2] > 0), body, start)
         truth, d = kernel(q, T, par, args)
         return q, truth, d

@@ -221,3 +221,30 @@ def test_projector_stops_early_with_the_fixed_loops_result(shape):
         assert not np.asarray(holds)[0] and np.asarray(holds)[1:].all()
     else:                                     # only the start outside holds
         assert np.array_equal(np.asarray(holds), [False, False, False, True, False])
+
+
+def test_projector_wraps_continuous_coordinates():
+    """A coordinate that wraps (a continuous joint, the base's yaw) is taken modulo its period,
+    never pinned at a bound: from just above -pi, the Newton steps toward 3.0 go down through
+    the seam and arrive; clipped (no ``wraps``), they stall at -pi."""
+    from tmpc.compiler.jaxcfg import configured
+    from tmpc.compiler.kernels.project import projector_fn
+    jnp = configured().numpy
+    lo, hi = np.array([-np.pi, -1.0]), np.array([np.pi, 1.0])
+
+    def kernel(q, T, par, args):                  # zero at (3.0 mod 2 pi, 0.5)
+        d = jnp.abs(jnp.sin((q[0] - 3.0) / 2)) + jnp.abs(q[1] - 0.5)
+        return d <= 1e-6, d
+
+    starts = np.array([[-3.0, 0.0], [-2.9, -0.8], [2.0, 0.9], [3.0 - 2 * np.pi, 0.2]])
+    n = np.int64(60)
+    wrapped = configured().jit(projector_fn(kernel, lo, hi, wraps=[True, False]))
+    Q, holds, _ = (np.asarray(x) for x in wrapped(starts, None, None, None, n))
+    assert holds.all(), Q
+    assert np.allclose(np.cos(Q[:, 0] - 3.0), 1.0) and np.allclose(Q[:, 1], 0.5, atol=1e-5)
+    assert ((Q[:, 0] >= -np.pi) & (Q[:, 0] < np.pi)).all()
+    clipped = configured().jit(projector_fn(kernel, lo, hi))
+    Q, holds, _ = (np.asarray(x) for x in clipped(starts, None, None, None, n))
+    # pinned at -pi: the first two on their way, the last (3 - 2 pi) from the start
+    assert not holds[[0, 1, 3]].any() and np.allclose(Q[[0, 1, 3], 0], -np.pi)
+    assert holds[2]                               # no seam on its way
