@@ -232,9 +232,15 @@ def test_shortcuts_are_graph_edges_checked_at_the_resolution(clutter_problem_1, 
     from tmpc.runtime.collision import CollisionWorld
 
     p = clutter_problem_1
-    planner, result = _solve(p, 1, first_solution=True)
-    first = planner.best_cost
-    assert planner._shortcut(math.inf) and planner.best_cost < first
+    # a first solution may already be as short as its shortcuts make it (seeds 1 and 3 of the
+    # bundled problem since the projector wraps continuous joints): the first seed with one
+    # to take
+    for seed in (1, 2, 0, 4):
+        planner, result = _solve(p, seed, first_solution=True)
+        first = planner.best_cost
+        if planner._shortcut(math.inf):
+            break
+    assert planner.best_cost < first
     assert planner.trace[-1][1] == pytest.approx(planner.best_cost)
     g = planner._graph()
     path = planner.best_path
