@@ -99,12 +99,7 @@ def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
         data = None
     if data is None:                      # the parser says what is wrong
         return load_urdf(ref, base, strict_meshes)
-    h = hashlib.sha256(json.dumps([str(path.resolve()), code_digest(),
-                                   os.environ.get("TMPC_MESH_PATH", ""),
-                                   os.environ.get("ROS_PACKAGE_PATH", ""),
-                                   str(example_robot_data_dir())]).encode())
-    h.update(hashlib.sha256(data).digest())
-    entry = cache_root() / "robots" / f"{h.hexdigest()[:32]}.json"
+    entry = urdf_entry("robots", path.resolve(), data)
     try:
         got = json.loads(entry.read_text("utf-8"))
         tree, complete = tree_from_data(got["tree"]), got["complete"] is True
@@ -125,6 +120,18 @@ def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
     except OSError:
         pass                              # a read-only cache is fine: just slower
     return tree
+
+
+def urdf_entry(part: str, path: Path, data: bytes, *extra: str, prefix: str = "") -> Path:
+    """The cache file (JSON) of a read of the URDF at ``path`` (contents ``data``): keyed by the
+    path and contents, the mesh search path (where its mesh URIs resolve), tmpc's code and
+    ``extra``."""
+    h = hashlib.sha256(json.dumps([str(path), code_digest(),
+                                   os.environ.get("TMPC_MESH_PATH", ""),
+                                   os.environ.get("ROS_PACKAGE_PATH", ""),
+                                   str(example_robot_data_dir()), *extra]).encode())
+    h.update(hashlib.sha256(data).digest())
+    return cache_root() / part / f"{prefix}{h.hexdigest()[:32]}.json"
 
 
 def source_files(world) -> list[Path]:

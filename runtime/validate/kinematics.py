@@ -18,16 +18,14 @@ validator never reconstructs it from (x, y, yaw) except to interpolate a motion
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from tmpc.compiler.cache import cache_root, code_digest, package_version
+from tmpc.compiler.cache import package_version, urdf_entry
 
 # Quaternion <-> matrix conversion is arithmetic, not kinematics: the validator shares numpy's
 # one copy (tmpc.compiler.rotations imports numpy only, nothing of the planner or JAX) and
@@ -36,7 +34,7 @@ from tmpc.compiler.cache import cache_root, code_digest, package_version
 from tmpc.compiler.rotations import quat_matrix as quat_matrix
 from tmpc.compiler.rotations import quat_of as quat_of
 from tmpc.lang.fileio import atomic_write_text
-from tmpc.lang.world import example_robot_data_dir, find_file, import_yourdfpy, load_urdf
+from tmpc.lang.world import find_file, import_yourdfpy, load_urdf
 
 
 @dataclass(frozen=True)
@@ -115,12 +113,7 @@ def read_urdf(path: str | Path) -> RobotDescription:
         data = path.read_bytes()
     except OSError:
         return parse_urdf(path)           # the parser says what is wrong
-    h = hashlib.sha256(json.dumps([str(path), code_digest(), package_version("yourdfpy"),
-                                   os.environ.get("TMPC_MESH_PATH", ""),
-                                   os.environ.get("ROS_PACKAGE_PATH", ""),
-                                   str(example_robot_data_dir())]).encode())
-    h.update(hashlib.sha256(data).digest())
-    entry = cache_root() / "viewer" / f"urdf-{h.hexdigest()[:32]}.json"
+    entry = urdf_entry("viewer", path, data, package_version("yourdfpy"), prefix="urdf-")
     try:
         desc = _description_from_data(json.loads(entry.read_text("utf-8")))
         if all(g.path is None or g.path.is_file()
