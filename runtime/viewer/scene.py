@@ -3,7 +3,8 @@ and the world pose of every body at each plan state and along each straight moti
 (:class:`Poser`), from the validator's kinematics (:mod:`.validate_kinematics`).
 
 Meshes are loaded with trimesh (COLLADA files keep one part per material and its colour), kept in
-the cache as arrays (a warm page imports no trimesh), and decimated by vertex clustering (:func:`decimate`) to a triangle budget per file.
+the cache as arrays (a warm page imports no trimesh), and decimated by vertex clustering
+(:func:`decimate`) to a triangle budget per file.
 """
 
 from __future__ import annotations
@@ -120,7 +121,8 @@ def _decode(path: Path, scale) -> list[TriMesh]:
 def _cached(key: list, data: bytes, make) -> list[TriMesh]:
     """``make()``'s meshes through the cache (``viewer/``, npz, no pickle), by ``key`` (JSON),
     ``data`` (a mesh file's contents), trimesh's version and tmpc's code: a warm page imports
-    no trimesh (~0.4-0.8 s, 2026-12-04). An entry that cannot be read is made again."""
+    no trimesh (~0.4-0.8 s, 2026-12-04). An entry that cannot be read is made again; nothing
+    made (a file trimesh could not read: COLLADA without pycollada, say) is not kept."""
     h = hashlib.sha256(json.dumps([key, code_digest(), package_version("trimesh")]).encode())
     h.update(hashlib.sha256(data).digest())
     entry = cache_root() / "viewer" / f"mesh-{h.hexdigest()[:32]}.npz"
@@ -131,6 +133,8 @@ def _cached(key: list, data: bytes, make) -> list[TriMesh]:
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         pass
     meshes = make()
+    if not meshes:
+        return meshes
     arrays = {"n": np.int64(len(meshes))}
     for i, m in enumerate(meshes):
         arrays.update({f"v{i}": np.asarray(m.vertices, float),
