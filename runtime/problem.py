@@ -496,11 +496,9 @@ class PlanningProblem:
         one batched check, the kinematics shared (a search's lookahead spans a few modes)."""
         groups = []
         for mode, Q0, Q1 in items:
-            segs = [self.collision.interpolate(a, b, resolution) for a, b in zip(Q0, Q1)]
-            if not ends:
-                segs = [s[1:-1] for s in segs]
-            lens = np.array([len(s) for s in segs], np.int64)
-            Q = np.concatenate(segs) if lens.sum() else np.zeros((0, len(self.lower)))
+            Q, lens = self.collision.interpolate_many(np.reshape(Q0, (-1, len(self.lower))),
+                                                      np.reshape(Q1, (-1, len(self.lower))),
+                                                      resolution, ends)
             groups.append((Q, mode.poses, mode.held, lens))
         t = time.perf_counter()
         out = self.collision.check_segments(groups)

@@ -654,6 +654,27 @@ class CollisionWorld:
         n = max(1, int(math.ceil(np.abs(d).max() / resolution - 1e-12)))
         return a + np.linspace(0.0, 1.0, n + 1)[:, None] * d
 
+    def interpolate_many(self, Q0, Q1, resolution: float,
+                         ends: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The states of the motions Q0[i] -> Q1[i] (k, n each) one after another, and how many
+        each has: :meth:`interpolate`'s states, the same numbers, without each motion's two
+        end states unless ``ends``; in one numpy pass (a search's lookahead interpolates
+        hundreds of edges a call: ~20 us each one by one)."""
+        A, B = self._Q(Q0), self._Q(Q1)
+        d = B - A
+        w = self.model.wraps
+        d[:, w] = (d[:, w] + math.pi) % (2 * math.pi) - math.pi
+        n = np.maximum(1, np.ceil(np.abs(d).max(1, initial=0.0) / resolution - 1e-12)
+                       ).astype(np.int64)
+        cut = 0 if ends else 1
+        lens = n + 1 - 2 * cut
+        row = np.repeat(np.arange(len(n)), lens)
+        first = np.cumsum(lens) - lens
+        j = (np.arange(len(row)) - first[row] + cut).astype(float)
+        frac = j * (1.0 / n)[row]                  # np.linspace's numbers, its last one exact
+        frac[j == n[row]] = 1.0
+        return A[row] + frac[:, None] * d[row], lens
+
     @property
     def first_pass_enabled(self) -> bool:
         return self._first_pass_enabled

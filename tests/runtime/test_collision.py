@@ -901,3 +901,30 @@ def test_agrees_with_pinocchio_and_coal_on_random_states(name, request):
           f"vs box), {band} disagreements within {BAND} m of touching, {len(outside)} outside")
     assert outside == []
     assert agree > 500 and boxes > 100 and band <= 0.01 * agree
+
+
+def test_many_motions_interpolate_as_one_at_a_time(pr2_mobile):
+    """`interpolate_many` gives every motion's states exactly (bitwise) as `interpolate` does
+    one motion at a time, the ends dropped on request, zero-length and wrapping motions and no
+    motion at all included."""
+    from tmpc.runtime.collision import CollisionWorld
+    model, _ = pr2_mobile
+    w = CollisionWorld(mobile_scene(model, four_tables()), model)
+    rng = np.random.default_rng(7)
+    for k in (0, 1, 5, 12):
+        Q0 = rng.uniform(model.lower, model.upper, (k, model.dof))
+        Q1 = Q0 + rng.normal(0.0, 1.0, Q0.shape) * rng.choice([0.001, 0.05, 1.0], (k, 1))
+        Q1[:1] = Q0[:1]                                   # a motion of length 0
+        for res, ends in ((0.02, True), (0.1, False), (0.007, False)):
+            Q, lens = w.interpolate_many(Q0, Q1, res, ends)
+            segs = [w.interpolate(a, b, res)[slice(None) if ends else slice(1, -1)]
+                    for a, b in zip(Q0, Q1)]
+            assert lens.tolist() == [len(s) for s in segs]
+            want = np.concatenate(segs) if k else np.zeros((0, model.dof))
+            assert Q.shape == want.shape and np.array_equal(Q, want)
+    wrapping = np.nonzero(model.wraps)[0]
+    assert len(wrapping)
+    a, b = np.array(model.default_q, float), np.array(model.default_q, float)
+    a[wrapping[0]], b[wrapping[0]] = 3.1, -3.1            # the short way: 0.083 rad, not 6.2
+    Q, lens = w.interpolate_many(a[None], b[None], 0.02)
+    assert lens.tolist() == [6] and np.abs(np.diff(Q[:, wrapping[0]])).max() < 0.02
