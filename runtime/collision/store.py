@@ -37,16 +37,22 @@ class FirstPassStore:
         self.path = cache_root() / "collision" / f"{key}.npz"
         self._arrays: dict[str, np.ndarray] = _read(self.path)
         self._dirty = False
+        #: the arrays by name, then field (``name/field`` split at its last slash): scanning
+        #: every key per lookup made a batch plan on tmit-star's shelves 1.39 ms instead of
+        #: 1.15 (~30 lookups of ~270 keys)
+        self._names: dict[str, dict[str, np.ndarray]] = {}
+        for k, v in self._arrays.items():
+            name, _, field = k.rpartition("/")
+            self._names.setdefault(name, {})[field] = v
 
     def get(self, name: str) -> dict[str, np.ndarray] | None:
         """The arrays stored under ``name/`` (None if absent)."""
-        prefix = name + "/"
-        found = {k[len(prefix):]: v for k, v in self._arrays.items() if k.startswith(prefix)}
-        return found or None
+        found = self._names.get(name)
+        return dict(found) if found else None
 
     def put(self, name: str, arrays: dict[str, np.ndarray]) -> None:
         for k, v in arrays.items():
-            self._arrays[f"{name}/{k}"] = np.asarray(v)
+            self._arrays[f"{name}/{k}"] = self._names.setdefault(name, {})[k] = np.asarray(v)
         self._dirty = True
 
     def save(self) -> None:
