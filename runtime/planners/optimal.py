@@ -42,9 +42,10 @@ solution is reported (``on_solution``: the CLI writes it atomically) and recorde
 cost-over-time trace. ``first_solution`` stops at the first one (tmit-star without ``-o``);
 ``until_converged`` stops once the last ``converged_solutions`` searches' best costs lie within
 ``converged_ratio`` of each other. Ctrl-C keeps the best plan. Each improved solution is then
-shortcut inside its modes (:meth:`OptimalPlanner._shortcut`), and an anytime run starts from the
-unified planner's plan (:meth:`OptimalPlanner._seed`); both
-become graph edges, so every reported plan is a path of the graph.
+shortcut inside its modes (:meth:`OptimalPlanner._shortcut`), its transitions moved along the
+manifolds that keep their effects (:meth:`OptimalPlanner._refine`), and an anytime run starts
+from the unified planner's plan (:meth:`OptimalPlanner._seed`); all become graph edges, so every
+reported plan is a path of the graph.
 
 Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
@@ -55,8 +56,9 @@ gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`)
 checked in batches, coarse first, a found path's at the full resolution (``coarse``); the
 search before a first solution is inflated (``inflation``) and a search gives up after
 ``search_budget`` edge checks until the next batch; the absolute cap grows while there is no
-solution (``cap_growth``: tmit-star's never does); anytime runs shortcut their
-solutions and start from the unified planner's plan (``shortcut_*``, ``seed_unified``).
+solution (``cap_growth``: tmit-star's never does); anytime runs shortcut and refine their
+solutions and start from the unified planner's plan (``shortcut_*``, ``refine_sweeps``,
+``seed_unified``).
 """
 
 from __future__ import annotations
@@ -70,6 +72,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.planners.refine import refine_path
 from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
 from tmpc.runtime.planners.unified import UnifiedPlanner
 from tmpc.runtime.problem import Mode, PlanningProblem
@@ -114,6 +117,8 @@ class OptimalOptions:
     shortcut_tries: int = 32           # shortcuts tried per mode segment of a new solution (tmpc's)
     shortcut_points: int = 16          # ... between points cutting its edges into this many pieces
     shortcut_rounds: int = 3           # ... and again on the shortened segment
+    #: sweeps of transition refinement per new solution (tmpc's; 0: off; refine.py)
+    refine_sweeps: int = 200
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     #: projector steps per transition attempt (the unified planner takes the problem's 15):
     #: tmit-star's putdowns need more, and fewer batches pay for them (docs/planning.md)
@@ -179,7 +184,9 @@ class OptimalPlanner:
         self.mode_vertices: dict[int, list[int]] = {}
         self.bridge: dict[int, tuple[int, object]] = {}     # transition vertex -> (bridge, action)
         self.stubs: list[tuple[int, int, float]] = []       # escape edges (valid) and costs
-        self._graph_seconds = 0.0                           # the last graph's construction
+        #: seconds per vertex of the last search's graph, heuristic and adjacency lists
+        self._graph_seconds = 0.0
+        self._search_t0 = 0.0
         self.shortcuts: list[tuple[int, int, float]] = []   # shortcut edges (valid) and costs
         self._stub_count: dict[int, int] = {}               # stub vertices per mode
         self._to_escape: list[int] = []                     # portals made since the last escape
@@ -700,10 +707,9 @@ class OptimalPlanner:
         """Reverse Dijkstra for h, then the forward lazy A*; True if the best cost improved."""
         if not self.goals or len(self.node_mode) == self._graph_size:
             return False
-        t = time.perf_counter()
+        t = self._search_t0 = time.perf_counter()
         self.counts["searches"] += 1
         g = self._graph()
-        self._graph_seconds = time.perf_counter() - t
         _, dijkstra = _graphs()
         h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(self.goals), min_only=True)
         improved = self._forward(g, h)
@@ -720,6 +726,8 @@ class OptimalPlanner:
         depth = np.array([self.depth[m] for m in self.node_mode])
         self._checks_left = self.opt.search_budget or math.inf
         lists = adjacency(g, h)
+        # what a search spends before it can stop at the deadline, per vertex
+        self._graph_seconds = (time.perf_counter() - self._search_t0) / len(self.node_mode)
         while True:
             # weighted (ABIT*'s inflation): a path found with fewer edge checks, at most
             # ``weight`` times the graph's cheapest; after the first solution the weight goes
@@ -914,6 +922,45 @@ class OptimalPlanner:
         self._improve(cost, path)
         return True
 
+    def _polish(self, deadline: float) -> None:
+        """A new solution shortcut, then its transitions refined, each improvement
+        reported."""
+        if self._shortcut(deadline):
+            self._report()
+        if self._refine(deadline):
+            self._report()
+
+    def _refine(self, deadline: float) -> bool:
+        """The best path's transitions moved along their constraints and its corners cut
+        (:func:`~tmpc.runtime.planners.refine.refine_path`, tmpc's addition). The vertices
+        that moved become new vertices (outside the nearest-neighbour lists) with their
+        bridges, the motions between them edges known valid: the refined path is a path of
+        the graph. True if the cost went down."""
+        if self.opt.refine_sweeps <= 0 or self.best_path is None or len(self.best_path) < 2:
+            return False
+        path = self.best_path
+        actions = [self.bridge[u][1] if self._is_bridge(u, v) else None
+                   for u, v in zip(path, path[1:])] + [None]
+        out = refine_path(self.p, self.Q[path], [self.modes[self.node_mode[v]] for v in path],
+                          actions, lambda m, new: m.sym == new.sym and
+                          _same_poses(m, new.poses, new.held),
+                          self.opt.resolution, deadline, max_sweeps=self.opt.refine_sweeps)
+        self.counts["refine_sweeps"] = self.counts.get("refine_sweeps", 0) + out.sweeps
+        if out.cost >= self.best_cost - 1e-6:
+            return False
+        ids = [self._add_vertex(q, self.modes[self.node_mode[path[k]]], listed=False)
+               if k in out.moved else path[k] for q, k in zip(out.Q, out.keep)]
+        for (a, b), k in zip(zip(ids, ids[1:]), out.keep):
+            if actions[k] is not None:
+                self.bridge[a] = (b, actions[k])
+            elif not self._fine.get(_key(a, b)):
+                self.edge_ok[_key(a, b)] = self._fine[_key(a, b)] = True
+                self.shortcuts.append((a, b, float(self.p.cost(self.Q[b], self.Q[a]))))
+        if path[-1] in self.goals:
+            self.goals.add(ids[-1])
+        self._improve(self._path_cost(ids), ids)
+        return True
+
     def _segments(self, path: list[int]) -> list[list[int]]:
         """``path`` cut at its transitions (a change of mode, or a bridge): the mode segments."""
         segs, cut = [], 0
@@ -1018,20 +1065,18 @@ class OptimalPlanner:
             else:
                 if self._seed(deadline):
                     self._report()
-                    if self._shortcut(deadline):
-                        self._report()
+                    self._polish(deadline)
                 self._new_task_plan(deadline)
                 self._new_batch()
             while self.best_path != [root] and time.perf_counter() < deadline:
                 done = self._sample_modes(deadline)
-                if time.perf_counter() + self._graph_seconds >= deadline:
-                    break         # no time for a search (its graph first: ~1 s at 100k vertices)
+                if time.perf_counter() + self._graph_seconds * len(self.node_mode) >= deadline:
+                    break         # no time for a search (its graph first: ~2 s at 140k vertices)
                 if self._search():
                     self._report()
                     if self.opt.first_solution:
                         break
-                    if self._shortcut(deadline):
-                        self._report()
+                    self._polish(deadline)
                 if self.best_path is not None:
                     self._search_costs.append(self.best_cost)
                     if self._converged():

@@ -470,3 +470,59 @@ def test_projection_iterations_come_from_the_configuration(clutter_problem_1, mo
     monkeypatch.setattr(problem, "project_raw", spy)
     assert planner.solve(60.0).status == "solved"
     assert set(steps) == {0, 7}
+
+
+def test_refined_transitions_keep_their_frames_and_modes_and_validate(clutter_problem_1,
+                                                                     tmp_path):
+    """Refinement moves a shortcut solution's transitions along their constraints: the cost
+    goes down; every transition's gripper frame keeps its pose (1e-9) and leads to the same
+    mode (same vertices' modes in the same order); the path is a path of the graph; every
+    motion is free under exact fcl at the resolution and the plan validates; a second run
+    from the same path gives the same states (nothing is random). Dropping the projection
+    back onto the constraint moves the frames and fails this."""
+    from tmpc.runtime.collision import CollisionWorld
+
+    p = clutter_problem_1
+    for seed in (0, 1, 2, 4):
+        planner, _ = _solve(p, seed, first_solution=True)
+        planner._shortcut(math.inf)
+        before, cost = list(planner.best_path), planner.best_cost
+        if planner._refine(math.inf):
+            break
+    after = planner.best_path
+    assert planner.best_cost < cost - 1e-3 and planner.counts["refine_sweeps"] > 0
+    assert planner.trace[-1][1] == pytest.approx(planner.best_cost)
+
+    def transitions(path):
+        return [(u, planner.bridge[u][1]) for u, v in zip(path, path[1:])
+                if planner._is_bridge(u, v)]
+
+    old, new = transitions(before), transitions(after)
+    assert [a for _, a in old] == [a for _, a in new] and len(new) == 2
+    assert [planner.node_mode[u] for u, _ in old] == [planner.node_mode[u] for u, _ in new]
+    assert any(not np.array_equal(planner.Q[u], planner.Q[w]) for (u, _), (w, _) in zip(old, new))
+    frames = [p.model.frame("l_gripper_tool_frame"), p.model.frame("r_gripper_tool_frame")]
+    for (u, action), (w, _) in zip(old, new):
+        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.Q[x][None]) for x in (u, w))
+        moved = [f for f in frames if np.abs(ta[f] - tb[f]).max() > 1e-9
+                 or np.abs(Ra[f] - Rb[f]).max() > 1e-9]
+        assert len(moved) <= 1, action.name    # the gripper that acts stays put
+        name = str(action.args[-1])
+        assert p.model.frame(name) not in moved
+    g = planner._graph()
+    assert all(g[u, v] > 0 for u, v in zip(after, after[1:]))
+    assert planner._path_cost(after) == pytest.approx(planner.best_cost)
+    exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
+                           tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
+                           first_pass=False)
+    for u, v in zip(after, after[1:]):
+        if not planner._is_bridge(u, v):
+            m = planner.modes[planner.node_mode[u]]
+            assert exact.check_motion(planner.Q[u], planner.Q[v], planner.opt.resolution,
+                                      poses=m.poses, attached=m.held, details=False).valid
+    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, seed)
+    assert report.valid, report
+    again, _ = _solve(p, seed, first_solution=True)
+    again._shortcut(math.inf)
+    again._refine(math.inf)
+    assert np.array_equal(again.Q[again.best_path], planner.Q[after])
