@@ -51,8 +51,9 @@ Differences from tmit-star (docs/planning.md "Where it differs"): the reverse se
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star
 declares ``blocked_steps`` and never reads it); each mode's entries are joined to its exits and
 half of its samples are drawn around them (``portals``, ``corridor``; a mode entered but not
-yet left: a tenth around its entries, ``entry_share``); every new portal vertex
-gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`); edges are
+yet left: a tenth around its entries, ``entry_share``); a portal vertex one of whose edges
+failed gets short free motions out of it (escape stubs, :meth:`OptimalPlanner._escape`; every
+portal, when a search finds no path); edges are
 checked in batches, coarse first, a found path's at the full resolution (``coarse``); the
 search before a first solution is inflated (``inflation``) and a search gives up after
 ``search_budget`` edge checks until the next batch; the absolute cap grows while there is no
@@ -110,6 +111,9 @@ class OptimalOptions:
     escape_tries: int = 16             # short motions tried out of each new portal (tmpc's; 0: off)
     escape_rounds: int = 2             # ... and again out of the free ends kept
     escape_keep: int = 2               # free ends kept per vertex and round
+    #: escape only out of portals one of whose edges failed (at the next sampling, or at once
+    #: when a search before the first solution found no path)
+    escape_lazy: bool = True
     #: their lengths: the largest coordinate step, as fractions of each coordinate's range
     escape_steps: tuple = (0.005, 0.02, 0.06)
     #: anytime runs start from the unified planner's plan (tmpc's; not with first_solution)
@@ -190,6 +194,7 @@ class OptimalPlanner:
         self.shortcuts: list[tuple[int, int, float]] = []   # shortcut edges (valid) and costs
         self._stub_count: dict[int, int] = {}               # stub vertices per mode
         self._to_escape: list[int] = []                     # portals made since the last escape
+        self._portal_set: set[int] = set()                 # portals not escaped from yet
         self.goals: set[int] = set()
         # modes
         self.modes: list[Mode] = []
@@ -508,14 +513,14 @@ class OptimalPlanner:
         tr.count(mode.id)
         self.counts["transitions"] += 1
         v = self._add_vertex(q, mode) if vertex is None else vertex
-        self._to_escape.append(v)
+        self._new_portal(v)
         if tr.action is None:
             self.goals.add(v)
             return True
         new = self.p.successor_mode(mode, tr.action, q, len(self.modes))
         succ, fresh = self._mode(new.sym, new.poses, new.held, mode, tr.action)
         b = self._add_vertex(q, succ)
-        self._to_escape.append(b)
+        self._new_portal(b)
         self.bridge[v] = (b, tr.action)
         if fresh:
             self.frontier.append(succ.id)
@@ -539,7 +544,9 @@ class OptimalPlanner:
         ``escape_keep`` longest free ones are kept, and tried from again, ``escape_rounds``
         times. Only the last stubs of each chain get nearest-neighbour edges (the ones before
         them join it to the portal alone), so a portal adds a few vertices to the searches,
-        not a cluster."""
+        not a cluster. With ``escape_lazy`` a portal is escaped from only once one of its edges
+        failed, or when a search before the first solution found no path (all portals not
+        escaped from yet)."""
         todo, self._to_escape = self._to_escape, []
         opt, p = self.opt, self.p
         if not todo or opt.escape_tries <= 0:
@@ -772,11 +779,21 @@ class OptimalPlanner:
                     good = False
         return good
 
+    def _new_portal(self, v: int) -> None:
+        if self.opt.escape_lazy:
+            self._portal_set.add(v)
+        else:
+            self._to_escape.append(v)
+
     def _mark(self, key: tuple[int, int], ok: bool) -> None:
         self.edge_ok[key] = ok
         if not ok:
             self.counts["edges_invalid"] += 1
             self._invalid.add(key)
+            for v in key:
+                if v in self._portal_set:
+                    self._portal_set.discard(v)
+                    self._to_escape.append(v)
 
     def _valid(self, u: int, v: int) -> bool | None:
         """Is the edge u -> v collision-free (None: not checked yet; transition edges always
@@ -1072,7 +1089,15 @@ class OptimalPlanner:
                 done = self._sample_modes(deadline)
                 if time.perf_counter() + self._graph_seconds * len(self.node_mode) >= deadline:
                     break         # no time for a search (its graph first: ~2 s at 140k vertices)
-                if self._search():
+                found = self._search()
+                if not found and self.best_path is None and (self._to_escape
+                                                             or self._portal_set):
+                    # no path: stubs out of every portal not escaped from yet, then again
+                    self._to_escape += sorted(self._portal_set)
+                    self._portal_set.clear()
+                    self._escape()
+                    found = self._search()
+                if found:
                     self._report()
                     if self.opt.first_solution:
                         break

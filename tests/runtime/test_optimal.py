@@ -117,7 +117,7 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
     from tmpc.runtime.collision import CollisionWorld
 
     p = clutter_problem_1
-    planner, result = _solve(p, 0, first_solution=True)
+    planner, result = _solve(p, 0, first_solution=True, escape_lazy=False)
     assert result.status == "solved" and planner.counts["escapes"] == len(planner.stubs) > 0
     exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
                            tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
@@ -135,6 +135,22 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
         m = planner.modes[planner.node_mode[a]]
         assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
                                   poses=m.poses, attached=m.held, details=False).valid
+
+
+def test_lazy_escapes_start_at_a_portals_first_failed_edge(clutter_problem_1):
+    """With ``escape_lazy`` a portal waits for stubs until one of its edges fails (then once);
+    without it every portal gets them when it is made."""
+    planner = OptimalPlanner(clutter_problem_1, 0, OptimalOptions())
+    planner._new_portal(5)
+    planner._new_portal(7)
+    planner._mark((5, 9), True)
+    assert planner._to_escape == []
+    planner._mark((3, 5), False)
+    planner._mark((5, 8), False)
+    assert planner._to_escape == [5] and planner._portal_set == {7}
+    eager = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(escape_lazy=False))
+    eager._new_portal(5)
+    assert eager._to_escape == [5] and not eager._portal_set
 
 
 def test_a_mode_with_no_exit_yet_samples_near_its_entries(clutter_problem_1):
