@@ -99,7 +99,10 @@ class _Refiner:
             mode = self.modes[k]
             for eff in self.p.ground.kinematic_effects(mode.sym, self.actions[k],
                                                        self._geo(mode, k)):
-                frames.add(eff.parent if eff.op == "link" else mode.held[eff.child][0])
+                if eff.op == "link":
+                    frames.add(eff.parent)
+                elif eff.child in mode.held:          # a release of what is not held: no-op
+                    frames.add(mode.held[eff.child][0])
         ids = sorted(self.p.model.frame(f) for f in frames)
         if not ids:
             return _Cluster(first, last, [], [])
