@@ -1096,7 +1096,9 @@ class OptimalPlanner:
                     self._to_escape += sorted(self._portal_set)
                     self._portal_set.clear()
                     self._escape()
-                    found = self._search()
+                    if time.perf_counter() + self._graph_seconds * len(self.node_mode) \
+                            < deadline:
+                        found = self._search()
                 if found:
                     self._report()
                     if self.opt.first_solution:
