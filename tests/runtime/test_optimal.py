@@ -542,3 +542,38 @@ def test_refined_transitions_keep_their_frames_and_modes_and_validate(clutter_pr
     again._shortcut(math.inf)
     again._refine(math.inf)
     assert np.array_equal(again.Q[again.best_path], planner.Q[after])
+
+
+def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_world, tmp_path):
+    """The Panda of examples/tabletop (no mobile base: the cost is plain L2 over the joints):
+    refinement lowers a shortcut first solution's cost, the frame each action links to or
+    releases from keeps its pose (1e-9), and the plan validates."""
+    from tmpc.runtime.problem import PlanningProblem
+
+    p = PlanningProblem(tabletop_world)
+    p.warm_up(np.random.default_rng(0))
+    assert not p.model.mobile_base
+    for seed in range(4):
+        planner, _ = _solve(p, seed, first_solution=True)
+        planner._shortcut(math.inf)
+        before, cost = list(planner.best_path), planner.best_cost
+        if planner._refine(math.inf):
+            break
+    assert planner.best_cost < cost - 1e-6
+
+    def transitions(path):
+        return [(u, planner.bridge[u][1]) for u, v in zip(path, path[1:])
+                if planner._is_bridge(u, v)]
+
+    old, new = transitions(before), transitions(planner.best_path)
+    assert [a for _, a in old] == [a for _, a in new] and old
+    for (u, action), (w, _) in zip(old, new):
+        mode = planner.modes[planner.node_mode[u]]
+        frames = [p.model.frame(e.parent if e.op == "link" else mode.held[e.child][0])
+                  for e in p.ground.kinematic_effects(mode.sym, action)]
+        assert frames, action.name
+        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.Q[x][None]) for x in (u, w))
+        for f in frames:
+            assert np.abs(ta[f] - tb[f]).max() < 1e-9 and np.abs(Ra[f] - Rb[f]).max() < 1e-9
+    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, seed)
+    assert report.valid, report
