@@ -441,6 +441,18 @@ class PlanningProblem:
         return (np.linalg.norm(d[..., 3:], axis=-1) + np.linalg.norm(d[..., :2], axis=-1)
                 + np.abs(d[..., 2]))
 
+    def cost_subgradient(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """A subgradient in ``q`` of :meth:`cost` (q, a): each of its norms' unit vector (0
+        where that part of the motion is 0)."""
+        d = self.difference(q, a)
+
+        def unit(x):
+            n = np.linalg.norm(x)
+            return x / n if n > 1e-12 else np.zeros_like(x)
+        if not self.model.mobile_base:
+            return unit(d)
+        return np.concatenate([unit(d[:2]), np.sign(d[2:3]), unit(d[3:])])
+
     def holds(self, mode: Mode, action, q: np.ndarray) -> bool:
         """Does ``action``'s geometric precondition (the goal's for None) hold at ``q``?"""
         if action is None:

@@ -1087,7 +1087,7 @@ class OptimalPlanner:
                 self._new_batch()
             while self.best_path != [root] and time.perf_counter() < deadline:
                 done = self._sample_modes(deadline)
-                if time.perf_counter() + self._graph_seconds * len(self.node_mode) >= deadline:
+                if not self._search_fits(deadline):
                     break         # no time for a search (its graph first: ~2 s at 140k vertices)
                 found = self._search()
                 if not found and self.best_path is None and (self._to_escape
@@ -1096,8 +1096,7 @@ class OptimalPlanner:
                     self._to_escape += sorted(self._portal_set)
                     self._portal_set.clear()
                     self._escape()
-                    if time.perf_counter() + self._graph_seconds * len(self.node_mode) \
-                            < deadline:
+                    if self._search_fits(deadline):
                         found = self._search()
                 if found:
                     self._report()
@@ -1118,6 +1117,11 @@ class OptimalPlanner:
             status = "interrupted"
             self.counts["interrupted"] = True
         return self._result(status, time.perf_counter() - start)
+
+    def _search_fits(self, deadline: float) -> bool:
+        """Is there time for a search before ``deadline``: its graph, heuristic and adjacency
+        lists (which do not stop at the deadline) as long per vertex as the last one's?"""
+        return time.perf_counter() + self._graph_seconds * len(self.node_mode) < deadline
 
     def _converged(self) -> bool:
         n = self.opt.converged_solutions

@@ -146,21 +146,6 @@ class _Refiner:
         return q if np.abs(self._residual(c, q[None])[0]).max() < ACCEPTED else None
 
     # ---- moves ---------------------------------------------------------------------------
-    def _subgradient(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """The subgradient of :meth:`PlanningProblem.cost` (a, q) in q."""
-        d = self.p.difference(q[None], a)[0]
-        g = np.zeros_like(d)
-        if not self.p.model.mobile_base:
-            n = np.linalg.norm(d)
-            return d / n if n > 1e-12 else g
-        nj, nxy = np.linalg.norm(d[3:]), np.linalg.norm(d[:2])
-        if nj > 1e-12:
-            g[3:] = d[3:] / nj
-        if nxy > 1e-12:
-            g[:2] = d[:2] / nxy
-        g[2] = np.sign(d[2])
-        return g
-
     def _cost(self, a: np.ndarray, b: np.ndarray) -> float:
         return float(self.p.cost(b[None], a)[0])
 
@@ -170,9 +155,9 @@ class _Refiner:
         q, prev = self.Q[i], self.Q[i - 1]
         nxt = self.Q[j + 1] if j + 1 < n else None
         old = self._cost(prev, q) + (self._cost(q, nxt) if nxt is not None else 0.0)
-        g = self._subgradient(q, prev)
+        g = self.p.cost_subgradient(q, prev)
         if nxt is not None:
-            g = g + self._subgradient(q, nxt)
+            g = g + self.p.cost_subgradient(q, nxt)
         if c.frames:
             _, J = self._jacobian(c, q)
             g = g - np.linalg.pinv(J) @ (J @ g)
