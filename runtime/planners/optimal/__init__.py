@@ -22,8 +22,9 @@ The package's rooms, each with its own account of its step:
 * :mod:`tmpc.runtime.planners.optimal.planner`: the loop that composes them
   (:class:`~tmpc.runtime.planners.optimal.planner.OptimalPlanner`).
 
-Costs are tmit-star's composite path length (:meth:`PlanningProblem.cost`), so plan costs
-compare across the two planners.
+Costs are tmit-star's composite path length
+(:meth:`tmpc.runtime.problem.PlanningProblem.cost`), so plan costs compare across the two
+planners.
 
 Differences from tmit-star (docs/planning.md "Where it differs"): the reverse search is
 recomputed per batch rather than repaired incrementally (LPA*); blockers are used (tmit-star

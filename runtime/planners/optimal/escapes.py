@@ -26,7 +26,7 @@ from tmpc.runtime.problem import PlanningProblem
 
 class Escapes:
     """The portals waiting for escape stubs and the stubs' making. ``due``: portals to escape
-    from at the next :meth:`escape`; ``waiting`` (``escape_lazy``): portals not escaped from
+    from at the next :meth:`Escapes.escape`; ``waiting`` (``escape_lazy``): portals not escaped from
     yet, until one of their edges fails."""
 
     def __init__(self, problem: PlanningProblem, options: OptimalOptions, graph: ModeGraph,

@@ -27,8 +27,8 @@ BRIDGE_COST = 1e-12
 def load_graphs():
     """scipy's ``csr_matrix`` and ``dijkstra``: imported on first use, which a run does on its
     warm-up thread beside the kernel loads
-    (:meth:`tmpc.runtime.planners.optimal.OptimalPlanner.warm_up_calls`) rather than in setup
-    on the main thread."""
+    (:meth:`tmpc.runtime.planners.optimal.planner.OptimalPlanner.warm_up_calls`) rather than in
+    setup on the main thread."""
     from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import dijkstra
     return csr_matrix, dijkstra

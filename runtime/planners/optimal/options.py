@@ -2,9 +2,9 @@
 
 :class:`OptimalOptions` holds every tunable of the planner (tmit-star's defaults where it has
 them, the rest tmpc's additions, docs/planning.md "Where it differs"); :class:`OptimalResult` is
-what :meth:`tmpc.runtime.planners.optimal.OptimalPlanner.solve` returns; :class:`BestSolution`
-is the incumbent every part of the planner reads (the searches' bound, the caps' growth) and
-the cost-over-time trace.
+what :meth:`tmpc.runtime.planners.optimal.planner.OptimalPlanner.solve` returns;
+:class:`BestSolution` is the incumbent every part of the planner reads (the searches' bound,
+the caps' growth) and the cost-over-time trace.
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ class OptimalOptions:
     shortcut_tries: int = 32           # shortcuts tried per mode segment of a new solution (tmpc's)
     shortcut_points: int = 16          # ... between points cutting its edges into this many pieces
     shortcut_rounds: int = 3           # ... and again on the shortened segment
-    #: sweeps of transition refinement per new solution (tmpc's; 0: off; :mod:`.refine`)
+    #: sweeps of transition refinement per new solution (tmpc's; 0: off;
+    #: :mod:`tmpc.runtime.planners.optimal.refine`)
     refine_sweeps: int = 200
     absolute_cap: int = 5              # successes per transition, ever (tmit-star: 5)
     #: projector steps per transition attempt (the unified planner takes the problem's 15):

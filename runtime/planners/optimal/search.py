@@ -217,7 +217,7 @@ class Searcher:
         the top of the search's queue), a batched call per mode, at ``coarse`` times the
         resolution: most edges that fail show it at a coarse step already (a state of the
         segment collides), and only the edges of a path found are checked at every step
-        (:meth:`confirm`). Raises :class:`OutOfChecks` once the budget or the run's time is
+        (:meth:`Searcher.confirm`). Raises :class:`OutOfChecks` once the budget or the run's time is
         spent."""
         G = self.graph
         todo: dict[int, dict[tuple[int, int], None]] = {}      # per mode, keys in order
