@@ -1,6 +1,7 @@
-"""tmpc.runtime.planners: the planner registry and the planners (unified, ch. 2), the FF heuristic,
-the incremental-SAT task planner, A* with LM-cut and the registry of `tmpc plan`'s engines
-(:data:`ENGINES`, :mod:`.engines`).
+"""The planner registry and the planners: unified (ch. 2), optimal (ch. 4, the package
+:mod:`tmpc.runtime.planners.optimal`), the FF heuristic, the incremental-SAT task planner, A* with
+LM-cut and the registry of `tmpc plan`'s engines (:data:`ENGINES`,
+:mod:`tmpc.runtime.planners.engines`).
 
 :data:`PLANNERS` maps a name to a :class:`PlannerSpec`: its factory and a one-line summary. The
 CLI's ``--planner`` choices, ``tmpc bench --planners`` and the registry test all read it; there
@@ -47,9 +48,8 @@ def _optimal(problem, seed: int, overrides: dict):
 
 
 PLANNERS: dict[str, PlannerSpec] = {
-    "unified": PlannerSpec(_unified,
-                           "composite-space RRT with the Algorithm 1 sampler (thesis ch. 2, planet)",
-                           ("heuristic_bias",)),
+    "unified": PlannerSpec(_unified, "composite-space RRT with the Algorithm 1 sampler "
+                           "(thesis ch. 2, planet)", ("heuristic_bias",)),
     "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT task plans, lazy transitions, "
                            "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)",
                            ("batch_size", "rewire", "first_solution", "until_converged")),
@@ -71,9 +71,11 @@ def unknown_planner(name: str) -> InputError:
 
 #: heavy names of this package, imported on first access
 _LAZY = {
-    "UnifiedPlanner": "tmpc.runtime.planners.unified", "UnifiedOptions": "tmpc.runtime.planners.unified",
+    "UnifiedPlanner": "tmpc.runtime.planners.unified",
+    "UnifiedOptions": "tmpc.runtime.planners.unified",
     "UnifiedResult": "tmpc.runtime.planners.unified",
-    "OptimalPlanner": "tmpc.runtime.planners.optimal", "OptimalOptions": "tmpc.runtime.planners.optimal",
+    "OptimalPlanner": "tmpc.runtime.planners.optimal",
+    "OptimalOptions": "tmpc.runtime.planners.optimal",
     "OptimalResult": "tmpc.runtime.planners.optimal",
     "FFHeuristic": "tmpc.runtime.planners.heuristic",
     "TaskPlanner": "tmpc.runtime.planners.taskplan", "simulate": "tmpc.runtime.planners.taskplan",
@@ -92,4 +94,5 @@ def __getattr__(name: str):
     return getattr(importlib.import_module(module), name)
 
 
-__all__ = ["PLANNERS", "PlannerSpec", "ENGINES", "EngineSpec", "EngineResult", "Limits", "make_planner", "unknown_planner", *_LAZY]
+__all__ = ["PLANNERS", "PlannerSpec", "ENGINES", "EngineSpec", "EngineResult", "Limits",
+           "make_planner", "unknown_planner", *_LAZY]

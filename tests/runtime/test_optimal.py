@@ -7,6 +7,8 @@ from __future__ import annotations
 import json
 import math
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.sparse import csr_matrix
@@ -118,22 +120,22 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
 
     p = clutter_problem_1
     planner, result = _solve(p, 0, first_solution=True, escape_lazy=False)
-    assert result.status == "solved" and planner.counts["escapes"] == len(planner.stubs) > 0
+    assert result.status == "solved" and planner.counts["escapes"] == len(planner.graph.stubs) > 0
     exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
                            tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
                            first_pass=False)
     span = np.where(p.wraps, 2 * np.pi, p.upper - p.lower)
-    parents = {a for a, _, _ in planner.stubs}
-    for a, b, cost in planner.stubs:
-        mid = planner.node_mode[b]
-        assert planner.node_mode[a] == mid
-        assert (b in planner.mode_vertices[mid]) == (b not in parents)
-        qa, qb = planner.Q[a], planner.Q[b]
+    parents = {a for a, _, _ in planner.graph.stubs}
+    for a, b, cost in planner.graph.stubs:
+        mid = planner.graph.node_mode[b]
+        assert planner.graph.node_mode[a] == mid
+        assert (b in planner.graph.mode_vertices[mid]) == (b not in parents)
+        qa, qb = planner.graph.Q[a], planner.graph.Q[b]
         assert np.abs(p.difference(qb, qa) / span).max() <= max(planner.opt.escape_steps) + 1e-9
         assert cost == pytest.approx(float(p.cost(qb, qa)))
-    for a, b, _ in planner.stubs[:60]:
-        m = planner.modes[planner.node_mode[a]]
-        assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
+    for a, b, _ in planner.graph.stubs[:60]:
+        m = planner.graph.modes[planner.graph.node_mode[a]]
+        assert exact.check_motion(planner.graph.Q[a], planner.graph.Q[b], planner.opt.resolution,
                                   poses=m.poses, attached=m.held, details=False).valid
 
 
@@ -141,16 +143,16 @@ def test_lazy_escapes_start_at_a_portals_first_failed_edge(clutter_problem_1):
     """With ``escape_lazy`` a portal waits for stubs until one of its edges fails (then once);
     without it every portal gets them when it is made."""
     planner = OptimalPlanner(clutter_problem_1, 0, OptimalOptions())
-    planner._new_portal(5)
-    planner._new_portal(7)
-    planner._mark((5, 9), True)
-    assert planner._to_escape == []
-    planner._mark((3, 5), False)
-    planner._mark((5, 8), False)
-    assert planner._to_escape == [5] and planner._portal_set == {7}
+    planner.escapes.new_portal(5)
+    planner.escapes.new_portal(7)
+    planner.searcher.record_edge((5, 9), True)
+    assert planner.escapes.due == []
+    planner.searcher.record_edge((3, 5), False)
+    planner.searcher.record_edge((5, 8), False)
+    assert planner.escapes.due == [5] and planner.escapes.waiting == {7}
     eager = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(escape_lazy=False))
-    eager._new_portal(5)
-    assert eager._to_escape == [5] and not eager._portal_set
+    eager.escapes.new_portal(5)
+    assert eager.escapes.due == [5] and not eager.escapes.waiting
 
 
 def test_a_mode_with_no_exit_yet_samples_near_its_entries(clutter_problem_1):
@@ -160,18 +162,19 @@ def test_a_mode_with_no_exit_yet_samples_near_its_entries(clutter_problem_1):
     was unsolved in 120 s: 7 of ~1,000 vertices of its grasp modes reachable)."""
     p = clutter_problem_1
     planner, result = _solve(p, 0, first_solution=True)
-    portals = planner._portals()
-    exitless = [m for m in planner.modes if m.id not in portals
-                and any(planner.node_mode[b] == m.id for b, _ in planner.bridge.values())]
+    portals = planner.graph.portals()
+    graph = planner.graph
+    exitless = [m for m in graph.modes if m.id not in portals
+                and any(graph.node_mode[b] == m.id for b, _ in graph.bridge.values())]
     assert result.status == "solved" and exitless
     mode = exitless[0]
-    entries, same = planner._portals_of(mode.id)
+    entries, same = planner.graph.portal_configurations(mode.id)
     assert same is entries and len(entries)
     span = np.where(p.wraps, 2 * np.pi, p.upper - p.lower)
 
     def near(share: float) -> int:
-        planner.opt = OptimalOptions(**{**planner.opt.__dict__, "entry_share": share})
-        Q = planner._uniform_valid(mode, 100)
+        planner.sampler.opt = replace(planner.opt, entry_share=share)
+        Q = planner.sampler.uniform_valid(mode, 100)
         dev = np.abs(p.difference(Q[:, None], entries[None]) / span).max(2).min(1)
         return int((dev < 0.2).sum())
 
@@ -186,17 +189,17 @@ def test_the_absolute_cap_grows_while_there_is_no_solution(clutter_problem_1):
     tr = Transition(0, None, 0, successes=5)
     caps = []
     for _ in range(6):
-        planner._new_batch()
-        caps.append(planner.absolute_cap)
-    assert caps == [5, 10, 10, 15, 15, 20] and planner._budget(tr)
-    planner.best_path = [0]
+        planner.sampler.new_batch()
+        caps.append(planner.sampler.absolute_cap)
+    assert caps == [5, 10, 10, 15, 15, 20] and planner.sampler.has_budget(tr)
+    planner.best.record_solution(1.0, [0])
     for _ in range(4):
-        planner._new_batch()
-    assert planner.absolute_cap == 20
+        planner.sampler.new_batch()
+    assert planner.sampler.absolute_cap == 20
     fixed = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(cap_growth=0))
     for _ in range(8):
-        fixed._new_batch()
-    assert fixed.absolute_cap == 5 and not fixed._budget(tr)
+        fixed.sampler.new_batch()
+    assert fixed.sampler.absolute_cap == 5 and not fixed.sampler.has_budget(tr)
 
 
 def _composite(problem, states) -> float:
@@ -254,39 +257,40 @@ def test_shortcuts_are_graph_edges_checked_at_the_resolution(clutter_problem_1, 
     for seed in (1, 2, 0, 4):
         planner, result = _solve(p, seed, first_solution=True)
         first = planner.best_cost
-        if planner._shortcut(math.inf):
+        if planner.improver.shortcut(math.inf):
             break
     assert planner.best_cost < first
     assert planner.trace[-1][1] == pytest.approx(planner.best_cost)
-    g = planner._graph()
+    g = planner.graph.search_graph()
     path = planner.best_path
     assert all(g[u, v] > 0 for u, v in zip(path, path[1:]))
-    assert planner._path_cost(path) == pytest.approx(planner.best_cost)
+    assert planner.graph.path_cost(path) == pytest.approx(planner.best_cost)
     exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
                            tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
                            first_pass=False)
     assert planner.counts["shortcuts"] > 0
-    for a, b, cost in planner.shortcuts[:40]:
-        m = planner.modes[planner.node_mode[a]]
-        assert planner.node_mode[b] == m.id and cost == pytest.approx(float(p.cost(planner.Q[b],
-                                                                               planner.Q[a])))
-        assert exact.check_motion(planner.Q[a], planner.Q[b], planner.opt.resolution,
+    graph = planner.graph
+    for a, b, cost in graph.shortcuts[:40]:
+        m = graph.modes[graph.node_mode[a]]
+        assert graph.node_mode[b] == m.id and cost == pytest.approx(float(p.cost(graph.Q[b],
+                                                                             graph.Q[a])))
+        assert exact.check_motion(graph.Q[a], graph.Q[b], planner.opt.resolution,
                                   poses=m.poses, attached=m.held, details=False).valid
-    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, 1)
+    _, report = _validate(p, planner.result("solved", 0.0), tmp_path, 1)
     assert report.valid, report
 
 
 def test_smallest_is_a_stable_argsorts_first_columns():
     """The nearest-neighbour lists' partial sort gives what a full stable argsort's first k
     columns give: long and short rows, repeated values (ties at the k-th value), infinities."""
-    from tmpc.runtime.planners.optimal import _smallest
+    from tmpc.runtime.planners.optimal.graph import smallest_k
     rng = np.random.default_rng(0)
     for rows, cols, k in ((30, 500, 20), (20, 2000, 150), (5, 60, 20), (40, 300, 7), (3, 1000, 1),
                           (4, 9, 0)):
         for C in (rng.random((rows, cols)), rng.integers(0, 40, (rows, cols)).astype(float)):
             C[:, ::17] = np.inf
             want = np.argsort(C, axis=1, kind="stable")[:, :k]
-            assert (_smallest(C, k) == want).all()
+            assert (smallest_k(C, k) == want).all()
 
 
 def test_the_search_graph_is_the_brute_force_graph(clutter_problem_1):
@@ -294,44 +298,45 @@ def test_the_search_graph_is_the_brute_force_graph(clutter_problem_1):
     one built by brute force from the planner's vertices: per mode, every vertex joined both
     ways to its k cheapest others (a full sort of all costs), the transitions one way, the
     escape stubs, shortcuts and portals both ways, the blacklisted edges removed."""
-    from tmpc.runtime.planners import optimal as opt_mod
+    from tmpc.runtime.planners.optimal.graph import BRIDGE_COST
     p = clutter_problem_1
     planner, _ = _solve(p, 2, first_solution=True)
-    planner._shortcut(math.inf)
+    planner.improver.shortcut(math.inf)
     for _ in range(2):                 # more vertices: the lists are merged, not rebuilt
-        planner._new_batch()
-        planner._sample_modes(math.inf)
-        planner._search()
-    planner._invalid.add(next(iter(sorted(planner.edge_ok))))        # one more blacklisted
-    g = planner._graph().tocoo()
+        planner.sampler.new_batch()
+        planner.sampler.sample_modes(math.inf)
+        planner.searcher.search()
+    planner.graph.invalid.add(next(iter(sorted(planner.graph.edge_ok))))    # one more blacklisted
+    g = planner.graph.search_graph().tocoo()
     got = {(int(a), int(b)): float(w) for a, b, w in zip(g.row, g.col, g.data)}
-    n = len(planner.node_mode)
-    k = int(math.ceil(planner.opt.rewire * (math.e + math.e / planner.dim) * math.log(n)))
+    n = len(planner.graph.node_mode)
+    k = int(math.ceil(planner.opt.rewire * (math.e + math.e / planner.graph.dim) * math.log(n)))
     want: dict = {}
 
     def add(a, b, w, both=True):
         for u, v in ((a, b), (b, a)) if both else ((a, b),):
-            want.setdefault((int(u), int(v)), max(float(w), opt_mod._BRIDGE))
+            want.setdefault((int(u), int(v)), max(float(w), BRIDGE_COST))
 
-    for ids in planner.mode_vertices.values():
+    for ids in planner.graph.mode_vertices.values():
         if len(ids) < 2:
             continue
-        X = planner.Q[ids]
+        X = planner.graph.Q[ids]
         C = np.stack([p.cost(X, x) for x in X])
         np.fill_diagonal(C, np.inf)
         for i, row in enumerate(C):
             for j in np.argsort(row, kind="stable")[:min(k, len(ids) - 1)]:
                 add(ids[i], ids[j], row[j])
-    for a, (b, _) in planner.bridge.items():
+    for a, (b, _) in planner.graph.bridge.items():
         add(a, b, 0.0, both=False)
-    for a, b, w in planner.stubs + planner.shortcuts:
+    for a, b, w in planner.graph.stubs + planner.graph.shortcuts:
         add(a, b, w)
-    for ins, outs in planner._portals().values():
+    for ins, outs in planner.graph.portals().values():
         for a in ins:
             for b in outs:
-                add(a, b, float(p.cost(planner.Q[b], planner.Q[a])))
-    want = {e: w for e, w in want.items() if (min(e), max(e)) not in planner._invalid}
-    assert len(want) > 500 and planner.stubs and planner.shortcuts and planner.bridge
+                add(a, b, float(p.cost(planner.graph.Q[b], planner.graph.Q[a])))
+    want = {e: w for e, w in want.items() if (min(e), max(e)) not in planner.graph.invalid}
+    graph = planner.graph
+    assert len(want) > 500 and graph.stubs and graph.shortcuts and graph.bridge
     assert set(got) == set(want)
     assert all(got[e] == pytest.approx(w, rel=1e-9, abs=1e-12) for e, w in want.items())
 
@@ -350,7 +355,7 @@ def test_anytime_runs_start_from_the_unified_plan(clutter_problem_1, tmp_path):
     want = float(sum(p.cost(b[0], a[0]) for a, b in zip(unified.path, unified.path[1:])))
     assert first == pytest.approx(want, rel=1e-6)
     assert result.cost <= first + 1e-6      # the trace rounds to 6 decimals
-    g = planner._graph()
+    g = planner.graph.search_graph()
     assert all(g[u, v] > 0 for u, v in zip(planner.best_path, planner.best_path[1:]))
     _, report = _validate(p, result, tmp_path, 2)
     assert report.valid, report
@@ -366,20 +371,20 @@ def test_blockers_change_which_task_plans_come_next(clutter_problem_1):
 
     def plans_after(with_evidence: bool) -> list[list[str]]:
         planner = OptimalPlanner(p, 0, OptimalOptions())
-        planner._add_mode(p.initial, 0)
-        assert planner._new_task_plan(math.inf)
-        first = planner.plan_transitions[0]
+        planner.graph.add_mode(p.initial, 0)
+        assert planner.next_task_plan(math.inf)
+        first = planner.tasks.plan_transitions[0]
         assert first.action.pre_geometric              # pickup: (at gripper stick)
         first.failures = 3
         if with_evidence:                               # the gripper is far from the stick at q0
             first.best_fail = (1.0, p.initial, p.q0)
-        planner._learn()
+        planner.tasks.learn()
         assert planner.counts["evidence"] == (1 if with_evidence else 0)
         out = []
         for _ in range(3):
-            res = planner.tp.next_plan(10)
+            res = planner.tasks.tp.next_plan(10)
             out.append([a.name for a in res.actions])
-            planner.tp.exclude_plan(res.actions)
+            planner.tasks.tp.exclude_plan(res.actions)
         return out
 
     plain, pinned = plans_after(False), plans_after(True)
@@ -387,9 +392,9 @@ def test_blockers_change_which_task_plans_come_next(clutter_problem_1):
     # the pinned literal is false in the initial mode: no plan starts with an action needing it
     first = plain[0]
     needs = OptimalPlanner(p, 0)
-    needs._add_mode(p.initial, 0)
-    needs._new_task_plan(math.inf)
-    lit = needs.plan[0].pre_geometric[0]
+    needs.graph.add_mode(p.initial, 0)
+    needs.next_task_plan(math.inf)
+    lit = needs.tasks.plan[0].pre_geometric[0]
     ground = p.ground
     for plan in pinned:
         action = ground.find_action(*plan[0].strip("()").split())
@@ -399,13 +404,13 @@ def test_blockers_change_which_task_plans_come_next(clutter_problem_1):
 def test_transition_caps_follow_tmit_star(clutter_problem_1):
     planner = OptimalPlanner(clutter_problem_1, 0, OptimalOptions(absolute_cap=5))
     tr = Transition(0, None, 0)
-    planner.cap = 1
-    assert planner._budget(tr)
+    planner.sampler.cap = 1
+    assert planner.sampler.has_budget(tr)
     tr.successes = 1
-    assert not planner._budget(tr)                      # the batch's cap
-    planner.cap = 9
+    assert not planner.sampler.has_budget(tr)                      # the batch's cap
+    planner.sampler.cap = 9
     tr.successes = 5
-    assert not planner._budget(tr)                      # the absolute cap
+    assert not planner.sampler.has_budget(tr)                      # the absolute cap
 
 
 def test_cli_optimal_writes_a_valid_plan_with_its_cost_trace(tmp_path):
@@ -443,7 +448,7 @@ def test_until_converged_stops_before_the_limit(clutter_problem_1):
     result = planner.solve(60.0)
     assert result.status == "solved"
     assert result.stats["seconds"] < 60.0
-    last = planner._search_costs[-3:]
+    last = planner.search_costs[-3:]
     assert max(last) - min(last) <= 0.1 * min(last)
 
 
@@ -457,7 +462,6 @@ def test_time_limit_without_a_solution_is_partial(clutter_problem_1):
 def test_projection_iterations_come_from_the_configuration(clutter_problem_1, monkeypatch):
     """``projection_iterations`` of a run configuration reaches every projection of a
     transition (the distance pre-checks stay at 0 steps); below 1 it is E825."""
-    from dataclasses import replace
     from types import SimpleNamespace
 
     from tmpc.lang.diagnostics import TmpcError
@@ -501,47 +505,48 @@ def test_refined_transitions_keep_their_frames_and_modes_and_validate(clutter_pr
     p = clutter_problem_1
     for seed in (0, 1, 2, 4):
         planner, _ = _solve(p, seed, first_solution=True)
-        planner._shortcut(math.inf)
+        planner.improver.shortcut(math.inf)
         before, cost = list(planner.best_path), planner.best_cost
-        if planner._refine(math.inf):
+        if planner.improver.refine_transitions(math.inf):
             break
     after = planner.best_path
     assert planner.best_cost < cost - 1e-3 and planner.counts["refine_sweeps"] > 0
     assert planner.trace[-1][1] == pytest.approx(planner.best_cost)
 
     def transitions(path):
-        return [(u, planner.bridge[u][1]) for u, v in zip(path, path[1:])
-                if planner._is_bridge(u, v)]
+        return [(u, planner.graph.bridge[u][1]) for u, v in zip(path, path[1:])
+                if planner.graph.is_bridge(u, v)]
 
     old, new = transitions(before), transitions(after)
     assert [a for _, a in old] == [a for _, a in new] and len(new) == 2
-    assert [planner.node_mode[u] for u, _ in old] == [planner.node_mode[u] for u, _ in new]
-    assert any(not np.array_equal(planner.Q[u], planner.Q[w]) for (u, _), (w, _) in zip(old, new))
+    graph = planner.graph
+    assert [graph.node_mode[u] for u, _ in old] == [graph.node_mode[u] for u, _ in new]
+    assert any(not np.array_equal(graph.Q[u], graph.Q[w]) for (u, _), (w, _) in zip(old, new))
     frames = [p.model.frame("l_gripper_tool_frame"), p.model.frame("r_gripper_tool_frame")]
     for (u, action), (w, _) in zip(old, new):
-        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.Q[x][None]) for x in (u, w))
+        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.graph.Q[x][None]) for x in (u, w))
         moved = [f for f in frames if np.abs(ta[f] - tb[f]).max() > 1e-9
                  or np.abs(Ra[f] - Rb[f]).max() > 1e-9]
         assert len(moved) <= 1, action.name    # the gripper that acts stays put
         name = str(action.args[-1])
         assert p.model.frame(name) not in moved
-    g = planner._graph()
+    g = planner.graph.search_graph()
     assert all(g[u, v] > 0 for u, v in zip(after, after[1:]))
-    assert planner._path_cost(after) == pytest.approx(planner.best_cost)
+    assert planner.graph.path_cost(after) == pytest.approx(planner.best_cost)
     exact = CollisionWorld(p.world.scene, p.collision.model, p.compiled.fk_frames,
                            tolerance=p.tolerance, allowed=p.world.allowed_pairs(),
                            first_pass=False)
     for u, v in zip(after, after[1:]):
-        if not planner._is_bridge(u, v):
-            m = planner.modes[planner.node_mode[u]]
-            assert exact.check_motion(planner.Q[u], planner.Q[v], planner.opt.resolution,
+        if not planner.graph.is_bridge(u, v):
+            m = planner.graph.modes[planner.graph.node_mode[u]]
+            assert exact.check_motion(graph.Q[u], graph.Q[v], planner.opt.resolution,
                                       poses=m.poses, attached=m.held, details=False).valid
-    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, seed)
+    _, report = _validate(p, planner.result("solved", 0.0), tmp_path, seed)
     assert report.valid, report
     again, _ = _solve(p, seed, first_solution=True)
-    again._shortcut(math.inf)
-    again._refine(math.inf)
-    assert np.array_equal(again.Q[again.best_path], planner.Q[after])
+    again.improver.shortcut(math.inf)
+    again.improver.refine_transitions(math.inf)
+    assert np.array_equal(again.graph.Q[again.best_path], planner.graph.Q[after])
 
 
 def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_world, tmp_path):
@@ -555,25 +560,25 @@ def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_wor
     assert not p.model.mobile_base
     for seed in range(4):
         planner, _ = _solve(p, seed, first_solution=True)
-        planner._shortcut(math.inf)
+        planner.improver.shortcut(math.inf)
         before, cost = list(planner.best_path), planner.best_cost
-        if planner._refine(math.inf):
+        if planner.improver.refine_transitions(math.inf):
             break
     assert planner.best_cost < cost - 1e-6
 
     def transitions(path):
-        return [(u, planner.bridge[u][1]) for u, v in zip(path, path[1:])
-                if planner._is_bridge(u, v)]
+        return [(u, planner.graph.bridge[u][1]) for u, v in zip(path, path[1:])
+                if planner.graph.is_bridge(u, v)]
 
     old, new = transitions(before), transitions(planner.best_path)
     assert [a for _, a in old] == [a for _, a in new] and old
     for (u, action), (w, _) in zip(old, new):
-        mode = planner.modes[planner.node_mode[u]]
+        mode = planner.graph.modes[planner.graph.node_mode[u]]
         frames = [p.model.frame(e.parent if e.op == "link" else mode.held[e.child][0])
                   for e in p.ground.kinematic_effects(mode.sym, action)]
         assert frames, action.name
-        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.Q[x][None]) for x in (u, w))
+        (Ra, ta), (Rb, tb) = (p.collision.kinematics(planner.graph.Q[x][None]) for x in (u, w))
         for f in frames:
             assert np.abs(ta[f] - tb[f]).max() < 1e-9 and np.abs(Ra[f] - Rb[f]).max() < 1e-9
-    _, report = _validate(p, planner._result("solved", 0.0), tmp_path, seed)
+    _, report = _validate(p, planner.result("solved", 0.0), tmp_path, seed)
     assert report.valid, report

@@ -1,0 +1,141 @@
+"""Task plans and transitions: the SAT task planner's plans, the transitions of their steps
+with their success and failure counts, and what a plan's attempts teach the next one.
+
+:class:`~tmpc.runtime.planners.taskplan.TaskPlanner` (geometric literals get blockers) gives the
+shortest plan consistent with what was learnt. Each of its steps becomes a *transition* of the
+step's symbolic state: ``(action, successor state)`` with success/failure counts. Before the
+next plan is asked for, the last plan's prefix up to and including its first transition
+without a success is excluded, and **blockers** are pinned (thesis §4.3.5): a transition that
+succeeded shows its geometric literals hold after its prefix; one that never succeeded, with a
+literal false at its best attempt (the projection closest to the precondition), shows that
+literal false there. Pinned literals remove every plan that needs them at that point without
+first running an action that may change them, not only the excluded prefix.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tmpc.runtime.planners.optimal.options import OptimalOptions
+from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
+from tmpc.runtime.problem import Mode, PlanningProblem
+
+
+@dataclass(eq=False)
+class Transition:
+    """An action of a symbolic state that task plans asked for (``action`` None: the goal's
+    geometric literals, in a goal state)."""
+
+    sym: int
+    action: object | None
+    to_sym: int
+    successes: int = 0
+    failures: int = 0
+    #: (distance, mode, q) of the failed attempt closest to the precondition
+    best_fail: tuple | None = None
+    #: successes per source mode
+    by_mode: dict = field(default_factory=dict)
+
+    def count(self, mode_id: int) -> None:
+        """One more success, from mode ``mode_id``."""
+        self.successes += 1
+        self.by_mode[mode_id] = self.by_mode.get(mode_id, 0) + 1
+
+    def record_failure(self, mode: Mode, q: np.ndarray, held: bool, distance: float) -> None:
+        """A failed attempt at ``q`` (``held``: the precondition held there, a collision
+        failed it); the best one (smallest distance, the precondition false) is kept for the
+        blocker evidence :meth:`TaskPlans.learn` derives."""
+        self.failures += 1
+        if self.action is not None and not held and (self.best_fail is None
+                                                     or distance < self.best_fail[0]):
+            self.best_fail = (distance, mode, q)
+
+
+class TaskPlans:
+    """The task planner, the current plan and its transitions, and every transition known per
+    symbolic state (``transitions``: kept across task plans)."""
+
+    def __init__(self, problem: PlanningProblem, options: OptimalOptions, counts: dict):
+        self.p = problem
+        self.opt = options
+        self.counts = counts
+        self.tp: TaskPlanner | None = None
+        self.transitions: dict[int, list[Transition]] = {}
+        self.plan: list | None = None
+        self.plan_transitions: list[Transition] = []
+        self.exhausted = False
+
+    def task_planner(self) -> TaskPlanner:
+        """The SAT task planner, built on first use (or by the run's warm-up)."""
+        if self.tp is None:
+            self.tp = TaskPlanner(self.p.ground, geometric=True)
+        return self.tp
+
+    def next_plan(self, deadline: float) -> bool:
+        """Learn from the last plan (exclusion, blockers) and ask for the next one; False when
+        there is none (the graph keeps growing with the transitions known)."""
+        t = time.perf_counter()
+        try:
+            if self.tp is None:
+                self.task_planner()
+            elif self.plan is not None:
+                self.learn()
+            if self.exhausted:
+                return False
+            left = None if math.isinf(deadline) else max(0.0, deadline - time.perf_counter())
+            res = self.tp.next_plan(self.opt.max_steps, left, min_steps=self.opt.min_steps)
+        finally:
+            self.p.timers.task_planning += time.perf_counter() - t
+        if res.status != SOLVED:
+            self.exhausted = res.status != "timeout"
+            self.plan = None
+            return False
+        self.counts["task_plans"] += 1
+        self.plan = list(res.actions)
+        self.plan_transitions = []
+        sym = self.p.ground.init
+        for action in self.plan:
+            to = self.p.ground.apply(sym, action)
+            self.plan_transitions.append(self.transition(sym, action, to))
+            sym = to
+        if self.p.goal_formula() is not None:
+            self.transition(sym, None, sym)
+        return True
+
+    def transition(self, sym: int, action, to: int) -> Transition:
+        """The transition ``(action, to)`` of symbolic state ``sym``, made when new."""
+        known = self.transitions.setdefault(sym, [])
+        for tr in known:
+            if tr.action is action and tr.to_sym == to:
+                return tr
+        tr = Transition(sym, action, to)
+        known.append(tr)
+        return tr
+
+    def learn(self) -> None:
+        """Exclude the last plan's prefix through its first transition without a success (all
+        of it if every one succeeded) and pin the blockers its transitions showed."""
+        plan, trs = self.plan, self.plan_transitions
+        k = next((i for i, tr in enumerate(trs) if tr.successes == 0), len(trs))
+        for i, tr in enumerate(trs[:k + 1]):
+            lits = ([(lit, True) for lit in tr.action.pre_geometric] if tr.successes else
+                    [(lit, False) for lit in self.false_literals(tr)])
+            for lit, value in lits:
+                if self.tp.add_evidence(plan[:i], lit, value):
+                    self.counts["evidence"] += 1
+        self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
+        self.plan = None
+
+    def false_literals(self, tr: Transition) -> list:
+        """The geometric literals of ``tr``'s action that are false at its best failed
+        attempt (none if its precondition never failed there: only collisions did)."""
+        if tr.best_fail is None:
+            return []
+        _, mode, q = tr.best_fail
+        geo = self.p.geo_oracle(mode, q)
+        return [lit for lit in tr.action.pre_geometric
+                if geo(lit.predicate, lit.args) != lit.positive]
