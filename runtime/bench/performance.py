@@ -29,6 +29,9 @@ import json
 import textwrap
 from pathlib import Path
 
+from tmpc.runtime.bench.report import read_inputs, summary_table
+from tmpc.runtime.repair import repair_table
+
 FORMAT = "tmpc-results/1"
 
 HEADER = """\
@@ -86,8 +89,6 @@ def render_table(table: dict) -> str:
 
 def source_table(path: Path) -> str:
     """`tmpc bench report`'s tables of a results file (or repair reports)."""
-    from tmpc.runtime.bench.report import read_inputs, summary_table
-    from tmpc.runtime.repair import repair_table
     recs, reports = read_inputs([path])
     parts = ([summary_table(recs)] if recs else []) + ([repair_table(reports)] if reports else [])
     return "\n".join(parts) if parts else "(no finished runs)\n"
@@ -141,9 +142,3 @@ def render(results_dir) -> str:
     toc = "".join(f"- [{t}](#{anchor(t)})\n" for t, _ in sections)
     return HEADER + "\n" + toc + "".join("\n" + s for _, s in sections)
 
-
-def write_performance(results_dir, out) -> Path:
-    """Render ``results_dir`` into the file ``out`` (atomically)."""
-    from tmpc.lang.fileio import atomic_write_text
-    atomic_write_text(Path(out), render(results_dir))
-    return Path(out)

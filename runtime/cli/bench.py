@@ -16,7 +16,7 @@ from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, TmpcError, error
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.runtime.bench import (BACKENDS, Bench, Dispatch, ParamError, Stop, check_output,
-                                parse_params, problem_names, write_report)
+                                parse_params, problem_names, render_performance, write_report)
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.interrupts import interruptible, writing
 from tmpc.runtime.planners import PLANNERS, unknown_planner
@@ -141,7 +141,6 @@ def run_report(args) -> int:
 
 def run_docs(args, files) -> int:
     """`tmpc bench report --docs DIR -o FILE.md`."""
-    from tmpc.runtime.bench import ResultsError, render_performance
     if files or not args.output:
         sys.stderr.write("tmpc bench report --docs DIR: give only the folder and -o FILE.md\n")
         return EXIT_USAGE
@@ -149,7 +148,7 @@ def run_docs(args, files) -> int:
         raise InputError(error("E010", f"no such folder: {args.docs}", None))
     try:
         text = render_performance(args.docs)
-    except (ResultsError, ValueError) as exc:
+    except ValueError as exc:                          # ResultsError, or JSON that is not
         raise InputError(error("E010", f"{exc}", None)) from exc
     if args.output == "-":
         sys.stdout.write(text)
