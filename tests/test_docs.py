@@ -24,3 +24,36 @@ def test_readme_quick_start_has_two_commands():
     code = re.findall(r"```[a-z]*\n(.*?)```", block, re.S)
     cmds = [ln for c in code for ln in c.splitlines() if ln.strip() and not ln.startswith("#")]
     assert len(cmds) == 2
+
+
+def test_readme_is_a_map():
+    """The README stays a map: measurements belong in docs/performance.md, history in
+    CHANGELOG.md."""
+    lines = (ROOT / "README.md").read_text().splitlines()
+    assert len(lines) <= 250
+    cells = [c for ln in lines if ln.startswith("|") for c in ln.strip("|").split("|")]
+    assert max(len(c.strip()) for c in cells) <= 200
+
+
+def test_performance_doc_is_rendered_from_its_results():
+    """docs/performance.md is exactly `tmpc bench report --docs docs/results`'s rendering, so it
+    cannot go stale: change a results file and render again."""
+    from tmpc.runtime.bench import render_performance
+    assert (ROOT / "docs" / "performance.md").read_text() == \
+        render_performance(ROOT / "docs" / "results"), (
+        "regenerate: tmpc bench report --docs docs/results -o docs/performance.md")
+
+
+def test_results_files_record_their_provenance():
+    import json
+    docs = sorted((ROOT / "docs" / "results").glob("*.json"))
+    assert docs
+    for path in docs:
+        doc = json.loads(path.read_text())
+        assert doc["format"] == "tmpc-results/1"
+        assert doc["command"] and doc["date"] and doc["machine"], path.name
+        assert doc["tables"], path.name
+
+
+def test_license_is_mit():
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")

@@ -10,7 +10,7 @@ them (self-contained: the images are data URIs), regenerated from the file alone
 * ``error_over_edits.png``: a repair experiment's error over the formulas evaluated within each
   repair and its parameter error over repairs (the thesis's Fig. 3.3), when an input is a
   ``report.json`` of `tmpc repair --experiment` (a colour per experiment);
-* ``table.md``: the Markdown tables of the README's Performance section: a row per problem and
+* ``table.md``: the Markdown tables of docs/performance.md's sweeps: a row per problem and
   planner (solved, median time and IQR, actions, cost, setup, memory), and a row per repair
   experiment.
 

@@ -1,7 +1,8 @@
 """`tmpc bench INPUT... [--planners A,B] [--seeds N] [--time-limit S] [-o R.json|R.jsonl]
 [--ompl-log R.log] [--backend local|ray] [--workers N] [--param NAME=V,...] [--resume]`:
 planners x problems x seeds (x parameter points), in this process or as tasks on a backend;
-`tmpc bench report R.jsonl -o DIR`: plots and an HTML report of a results file (docs/bench.md).
+`tmpc bench report R.jsonl -o DIR`: plots and an HTML report of a results file; `tmpc bench report
+--docs DIR -o FILE.md`: the performance document of a folder of results files (docs/bench.md).
 Exit 0; 70 if a plan failed validation; 130 when interrupted (what was collected is still
 written)."""
 
@@ -13,8 +14,9 @@ from pathlib import Path
 
 from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, TmpcError, error
+from tmpc.lang.fileio import atomic_write_text
 from tmpc.runtime.bench import (BACKENDS, Bench, Dispatch, ParamError, Stop, check_output,
-                                parse_params, problem_names, write_report)
+                                parse_params, problem_names, render_performance, write_report)
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from tmpc.runtime.interrupts import interruptible, writing
 from tmpc.runtime.planners import PLANNERS, unknown_planner
@@ -120,8 +122,11 @@ def run_dispatch(args, planners: list[str]) -> int:
 
 
 def run_report(args) -> int:
-    """`tmpc bench report R.jsonl [R2.jsonl ...] -o DIR`."""
+    """`tmpc bench report R.jsonl [R2.jsonl ...] -o DIR`, or `tmpc bench report --docs DIR -o
+    FILE.md` (``-o -``: stdout): the performance document of a folder of results files."""
     files = args.inputs[1:]
+    if getattr(args, "docs", None):
+        return run_docs(args, files)
     if not files or not args.output:
         sys.stderr.write("tmpc bench report: give the results file(s) and -o DIR\n")
         return EXIT_USAGE
@@ -131,4 +136,24 @@ def run_report(args) -> int:
     written = write_report(files, args.output)
     for path in written:
         sys.stderr.write(f"wrote {path}\n")
+    return EXIT_OK
+
+
+def run_docs(args, files) -> int:
+    """`tmpc bench report --docs DIR -o FILE.md`."""
+    if files or not args.output:
+        sys.stderr.write("tmpc bench report --docs DIR: give only the folder and -o FILE.md\n")
+        return EXIT_USAGE
+    if not Path(args.docs).is_dir():
+        raise InputError(error("E010", f"no such folder: {args.docs}", None))
+    try:
+        text = render_performance(args.docs)
+    except ValueError as exc:                          # ResultsError, or JSON that is not
+        raise InputError(error("E010", f"{exc}", None)) from exc
+    if args.output == "-":
+        sys.stdout.write(text)
+        return EXIT_OK
+    with writing():
+        atomic_write_text(Path(args.output), text)
+    sys.stderr.write(f"wrote {args.output}\n")
     return EXIT_OK

@@ -338,6 +338,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "planner parameter (repeat: the cross product)")
         g.add_argument("--resume", action="store_true", help="skip the runs the results file "
                        "(-o R.jsonl) already has")
+        p.add_argument("--docs", metavar="DIR", help="`bench report --docs DIR -o FILE.md`: "
+                       "render the performance document from the results files in DIR "
+                       "(docs/bench.md)")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
