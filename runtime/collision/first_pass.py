@@ -151,8 +151,8 @@ class FirstPass:
              allowed.tobytes())
         got = self._plans.pop(key, None)
         if got is None:
-            # least recently used out: an optimal search's frontier spans ~100 modes (clutter-14
-            # with the red sticks built 1,802 plans for 181 modes with 16 kept); ~40 KB each
+            # least recently used out: an optimal search's frontier spans ~100 modes, and a plan
+            # rebuilt on every mode switch costs more than the ~40 KB it takes
             if len(self._plans) >= PLANS_KEPT:
                 self._plans.pop(next(iter(self._plans)))
             got = self._plan(place, allowed)

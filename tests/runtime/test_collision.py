@@ -930,3 +930,40 @@ def test_many_motions_interpolate_as_one_at_a_time(pr2_mobile):
     a[wrapping[0]], b[wrapping[0]] = 3.1, -3.1            # the short way: 0.083 rad, not 6.2
     Q, lens = w.interpolate_many(a[None], b[None], 0.02)
     assert lens.tolist() == [6] and np.abs(np.diff(Q[:, wrapping[0]])).max() < 0.02
+
+
+def test_the_jit_answers_as_the_built_module_and_exact_fcl(pr2_mobile, monkeypatch):
+    """With numba's JIT forced (what a machine runs when numba.pycc is gone or its build
+    fails: :mod:`tmpc.runtime.collision.kernel`), batches, batched motions and a motion give
+    the answers of the module built ahead of time and of exact fcl, state by state."""
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision import CollisionWorld, kernel
+    from tmpc.runtime.collision import pass_kernel as jit
+    model, _ = pr2_mobile
+    module, why = aot.obtain(kernel.PASS_KERNEL)
+    assert module is not None, why
+    objs = tables_and_sticks(3, 1.2)
+    objs.append(box("held", (0.0, 0.0, 0.0), (0.02, 0.02, 0.15), True))
+    sc = mobile_scene(model, objs)
+    exact = CollisionWorld(sc, model, first_pass=False)
+    A, B = random_motions(model, np.random.default_rng(11), 120, 0.3)
+    Q = np.concatenate([A, B])
+    held = {"held": (TOOL, np.eye(4))}
+    segs = [exact.interpolate(a, b, 0.05) for a, b in zip(A[:40], B[:40])]
+    group = (np.concatenate(segs), None, held, [len(s) for s in segs])
+    truth = (exact.check_batch(Q, attached=held), exact.check_segments([group])[0],
+             exact.check_motion(A[0], B[0], 0.05, details=False).t_first_collision)
+    assert truth[0].any() and not truth[0].all()
+    got = {}
+    for how in ("built", "jit"):
+        state = {"candidates": module.candidates, "kinematics": module.kinematics, "why": None}
+        if how == "jit":
+            state = {"candidates": jit.candidates, "kinematics": jit.kinematics, "why": "test"}
+        monkeypatch.setattr(kernel, "KERNEL_STATE", state)
+        w = CollisionWorld(sc, model)
+        got[how] = (w.check_batch(Q, attached=held), w.check_segments([group])[0],
+                    w.check_motion(A[0], B[0], 0.05, details=False).t_first_collision)
+        assert kernel.KERNEL_STATE["candidates"] is state["candidates"]
+    for how in got:
+        assert (got[how][0] == truth[0]).all() and (got[how][1] == truth[1]).all(), how
+        assert got[how][2] == truth[2], how
