@@ -36,7 +36,7 @@ from tmpc.compiler.smt import smtlib_templates
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.lang.inputs import load_world
-from tmpc.lang.world import find_file, find_srdf
+from tmpc.lang.world import dispatch_shape, find_file, find_srdf
 
 
 @dataclass
@@ -77,17 +77,25 @@ def _pack_urdf(members: _Members, urdf: Path) -> str:
 def _shape_json(members: _Members, shape) -> dict | None:
     if shape is None:
         return None
-    if shape.kind == "box":
-        return {"type": "box", "half_extents": list(shape.size)}
-    if shape.kind == "sphere":
-        return {"type": "sphere", "radius": shape.radius}
-    if shape.kind == "cylinder":
-        return {"type": "cylinder", "radius": shape.radius, "length": shape.length}
+    return dispatch_shape(_SHAPE_JSON, shape, "the artifact's scene JSON")(members, shape)
+
+
+def _mesh_json(members: _Members, shape) -> dict | None:
     if shape.mesh is None or not Path(shape.mesh).is_file():
         return None                      # an unresolved legacy mesh: no geometry in the artifact
     name = members.blob(Path(shape.mesh).read_bytes(), Path(shape.mesh).suffix)
     return {"type": "mesh", "file": "../" + name, "scale": list(shape.scale),
             "convex": shape.convex}
+
+
+#: a shape as native JSON (docs/world.md), per kind
+_SHAPE_JSON = {
+    "box": lambda members, shape: {"type": "box", "half_extents": list(shape.size)},
+    "sphere": lambda members, shape: {"type": "sphere", "radius": shape.radius},
+    "cylinder": lambda members, shape: {"type": "cylinder", "radius": shape.radius,
+                                        "length": shape.length},
+    "mesh": _mesh_json,
+}
 
 
 def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:

@@ -18,7 +18,7 @@ from tmpc.compiler.rotations import matrix_to_quat, quat_matrix, rpy_of
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.symbols import NUMBER_CONSTANTS
-from tmpc.lang.world import Scene
+from tmpc.lang.world import Scene, dispatch_shape
 
 
 @dataclass(frozen=True)
@@ -226,16 +226,7 @@ class Evaluator:
         obj = self.scene.object(o.name)
         if obj is None or obj.shape is None:
             raise _fail(f"`{o.name}` has no shape in the scene", e)
-        s = obj.shape
-        if s.kind == "box":
-            return np.array(s.size, float)
-        if s.kind == "sphere":
-            return np.full(3, s.radius)
-        if s.kind == "cylinder":
-            return np.array([s.radius, s.radius, s.length / 2])
-        import trimesh
-        mesh = trimesh.load(str(s.mesh), force="mesh")
-        return np.asarray(mesh.extents) * np.asarray(s.scale) / 2
+        return dispatch_shape(_EXTENT, obj.shape, "extent")(obj.shape)
 
     def support(self, o: Obj, e) -> AABB:
         obj = self.scene.object(o.name)
@@ -387,3 +378,18 @@ def to_json_value(v):
     if isinstance(v, np.ndarray):
         return v.tolist()
     return v
+
+
+def _mesh_extent(s) -> np.ndarray:
+    import trimesh
+    mesh = trimesh.load(str(s.mesh), force="mesh")
+    return np.asarray(mesh.extents) * np.asarray(s.scale) / 2
+
+
+#: half-extents of a shape's box (its frame), per kind
+_EXTENT = {
+    "box": lambda s: np.array(s.size, float),
+    "sphere": lambda s: np.full(3, s.radius),
+    "cylinder": lambda s: np.array([s.radius, s.radius, s.length / 2]),
+    "mesh": _mesh_extent,
+}

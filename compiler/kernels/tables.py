@@ -14,7 +14,7 @@ import numpy as np
 
 from tmpc.compiler.meshes import mesh_arrays
 from tmpc.compiler.robot import RobotModel
-from tmpc.lang.world import Scene
+from tmpc.lang.world import Scene, dispatch_shape
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,19 +41,26 @@ class KernelTables:
         return self.ids.get(name.lower())
 
 
-def _extent(shape) -> tuple[float, float, float]:
-    if shape is None:
-        return (0.0, 0.0, 0.0)
-    if shape.kind == "box":
-        return tuple(shape.size)
-    if shape.kind == "sphere":
-        return (shape.radius,) * 3
-    if shape.kind == "cylinder":
-        return (shape.radius, shape.radius, shape.length / 2)
+def _mesh_extent(shape) -> tuple[float, float, float]:
     if shape.mesh is not None and shape.mesh.is_file():
         v = mesh_arrays(shape.mesh, shape.scale, "a scene object")["vertices"]
         return tuple(float(x) for x in (v.max(0) - v.min(0)) / 2)
     return (0.0, 0.0, 0.0)
+
+
+#: half-extents of a shape's box, per kind
+_EXTENT = {
+    "box": lambda shape: tuple(shape.size),
+    "sphere": lambda shape: (shape.radius,) * 3,
+    "cylinder": lambda shape: (shape.radius, shape.radius, shape.length / 2),
+    "mesh": _mesh_extent,
+}
+
+
+def _extent(shape) -> tuple[float, float, float]:
+    if shape is None:
+        return (0.0, 0.0, 0.0)
+    return dispatch_shape(_EXTENT, shape, "an object's extent")(shape)
 
 
 def build_tables(scene: Scene, model: RobotModel | None, scope=None) -> KernelTables:

@@ -24,5 +24,8 @@ from tmpc.lang.world.scene import Pose as Pose
 from tmpc.lang.world.scene import RobotSpec as RobotSpec
 from tmpc.lang.world.scene import RunConfig as RunConfig
 from tmpc.lang.world.scene import Scene as Scene
+from tmpc.lang.world.scene import SHAPE_KINDS as SHAPE_KINDS
 from tmpc.lang.world.scene import Shape as Shape
+from tmpc.lang.world.scene import ShapeKindError as ShapeKindError
 from tmpc.lang.world.scene import collision_tolerance as collision_tolerance
+from tmpc.lang.world.scene import dispatch_shape as dispatch_shape

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable, Mapping, TypeVar
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]   # x, y, z, w
@@ -66,6 +67,29 @@ class Shape:
     mesh: Path | None = None
     scale: Vec3 = (1.0, 1.0, 1.0)
     convex: bool = False
+
+
+#: the kinds of :class:`Shape`
+SHAPE_KINDS = ("box", "sphere", "cylinder", "mesh")
+
+_Case = TypeVar("_Case", bound=Callable)
+
+
+class ShapeKindError(ValueError):
+    """A shape kind that a dispatch table has no case for."""
+
+
+def dispatch_shape(table: Mapping[str, _Case], shape: "Shape | str", what: str) -> _Case:
+    """The case of ``table`` for a shape's kind (``shape``: a :class:`Shape`, or a kind such as
+    a URDF geometry's ``kind``). Each module keeps its own table of per-kind functions; a kind
+    the table lacks raises :class:`ShapeKindError` naming ``what``, the kind and the kinds the
+    table has."""
+    kind = shape if isinstance(shape, str) else shape.kind
+    case = table.get(kind)
+    if case is None:
+        raise ShapeKindError(f"{what}: no case for shape kind `{kind}` (this table has "
+                             f"{', '.join(table) or 'none'})")
+    return case
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,15 +1,20 @@
-"""Batch shapes shared by the collision checker and its first pass: states are padded to a few
-fixed sizes so the jitted kinematics compile once per size."""
+"""Batch shapes of the collision checker: states per kinematics call, and padding for a kinematics that compiles per shape.
+
+The checker's own kinematics (:class:`tmpc.runtime.collision.kinematics.Kinematics`) takes any
+number of states and is never padded. A kinematics given to the world that compiles once per
+batch shape (the artifact's JAX kernel, ``pads`` not False) gets its states padded to a few
+fixed sizes (:func:`pad_batch`), so it compiles for few shapes.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 #: states per forward-kinematics call in batch checks: the PR2's kinematics (82 frames) costs
-#: the least per state at 128 states; at 1024 its intermediates leave the cache and each state
-#: costs 2-3x more (tests/bench/test_bench_collision.py prints the curve)
+#: the least per state around here, and larger batches' intermediates leave the cache
+#: (tests/bench/test_bench_collision.py prints the curve)
 CHUNK = 128
-#: batch shapes the jitted kinematics of the checks compile for
+#: batch shapes a kinematics that compiles per shape is padded to
 PAD_SIZES = (16, CHUNK)
 
 

@@ -1,18 +1,26 @@
-"""Collision geometry from robot and scene descriptions: meshes (BVH + convex hull), fcl shapes,
-and the robot pairs never checked (rigidly joined and adjacent links, SRDF-disabled pairs).
-Used by :mod:`tmpc.runtime.collision.world`."""
+"""Collision geometry of a world: bodies, their geometries and fcl shapes, and the robot pairs never checked.
+
+Meshes are loaded once per file and scale (a BVH and its convex hull); the never-checked robot
+pairs are the rigidly joined and adjacent links and the SRDF's disabled pairs.
+:class:`PassGeometry` is what the first pass (:mod:`tmpc.runtime.collision.first_pass`) and the
+pair tables read of a built world. Used by :mod:`tmpc.runtime.collision.build`.
+"""
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tmpc.compiler.meshes import mesh_arrays
 from tmpc.lang.diagnostics import SceneError, error
-from tmpc.lang.world import KinematicTree, Shape
+from tmpc.lang.world import KinematicTree, Shape, ShapeKindError, dispatch_shape
+
+if TYPE_CHECKING:
+    from tmpc.compiler.robot import RobotModel
 
 
 @dataclass(frozen=True)
@@ -57,37 +65,53 @@ class Geom:
         return self.hull if self.hull is not None else self.obj
 
 
+#: what makes a shape of each kind degenerate (None: nothing)
+_PROBLEM = {
+    "box": lambda shape: None if min(shape.size) > 0 else "box half-extents must be positive",
+    "sphere": lambda shape: None if shape.radius > 0 else "sphere radius must be positive",
+    "cylinder": lambda shape: None if shape.radius > 0 and shape.length > 0 else
+    "cylinder radius and length must be positive",
+    "mesh": lambda shape: None if shape.mesh is not None else "mesh shape without a file",
+}
+
+
 def _shape_problem(shape: Shape) -> str | None:
-    if shape.kind == "box":
-        return None if min(shape.size) > 0 else "box half-extents must be positive"
-    if shape.kind == "sphere":
-        return None if shape.radius > 0 else "sphere radius must be positive"
-    if shape.kind == "cylinder":
-        return None if shape.radius > 0 and shape.length > 0 else \
-            "cylinder radius and length must be positive"
-    if shape.kind == "mesh":
-        return None if shape.mesh is not None else "mesh shape without a file"
-    return f"unknown shape kind `{shape.kind}`"
+    try:
+        return dispatch_shape(_PROBLEM, shape, "a collision shape")(shape)
+    except ShapeKindError:
+        return f"unknown shape kind `{shape.kind}`"
 
 
 def fcl_geometry(shape: Shape, owner: str):
     """``(geometry, hull or None, AABB center, AABB half-extents, MeshData or None)`` in the
     shape's own frame. Raises E574 for a degenerate shape."""
-    import fcl
     bad = _shape_problem(shape)
     if bad is not None:
         raise SceneError(error("E574", f"{owner}: {bad}", None,
                                "shapes are box (half-extents), sphere, cylinder (radius, length) "
                                "or mesh"))
-    zero = np.zeros(3)
-    if shape.kind == "box":
-        h = np.asarray(shape.size, float)
-        return fcl.Box(*(2 * h)), None, zero, h, None
-    if shape.kind == "sphere":
-        return fcl.Sphere(shape.radius), None, zero, np.full(3, float(shape.radius)), None
-    if shape.kind == "cylinder":
-        return (fcl.Cylinder(shape.radius, shape.length), None, zero,
-                np.array([shape.radius, shape.radius, shape.length / 2]), None)
+    return dispatch_shape(_FCL, shape, "fcl geometry")(shape, owner)
+
+
+def _fcl_box(shape: Shape, owner: str):
+    import fcl
+    h = np.asarray(shape.size, float)
+    return fcl.Box(*(2 * h)), None, np.zeros(3), h, None
+
+
+def _fcl_sphere(shape: Shape, owner: str):
+    import fcl
+    return fcl.Sphere(shape.radius), None, np.zeros(3), np.full(3, float(shape.radius)), None
+
+
+def _fcl_cylinder(shape: Shape, owner: str):
+    import fcl
+    return (fcl.Cylinder(shape.radius, shape.length), None, np.zeros(3),
+            np.array([shape.radius, shape.radius, shape.length / 2]), None)
+
+
+def _fcl_mesh(shape: Shape, owner: str):
+    import fcl
     m = load_mesh(shape.mesh, shape.scale, owner)
     bvh = fcl.BVHModel()
     bvh.beginModel(len(m.vertices), len(m.faces))
@@ -97,6 +121,71 @@ def fcl_geometry(shape: Shape, owner: str):
     hull = fcl.Convex(m.hull_vertices, len(m.hull_faces), hf)
     lo, hi = m.vertices.min(0), m.vertices.max(0)
     return bvh, hull, (lo + hi) / 2, (hi - lo) / 2, m
+
+
+_FCL = {"box": _fcl_box, "sphere": _fcl_sphere, "cylinder": _fcl_cylinder, "mesh": _fcl_mesh}
+
+
+# ---------------------------------------------------------------------------------------------
+# bodies and where they are
+
+
+@dataclass
+class Body:
+    """A rigid thing that collides: a robot link (``frame`` = its FK frame) or a scene object."""
+
+    name: str
+    kind: str                    # "link" | "object"
+    frame: int = -1
+    geoms: list[int] = field(default_factory=list)
+    static: bool = False
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where a body is in one state: ``T`` in the world (``frame`` -1) or relative to a robot
+    frame. ``held``: held objects are not checked against the links of their hand."""
+
+    frame: int
+    T: np.ndarray
+    held: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class PassGeometry:
+    """What the first pass and the pair tables read of a built collision world: its bodies and
+    geometries and the geometry pairs to check (index arrays into ``geoms``)."""
+
+    model: "RobotModel | None"
+    bodies: list[Body]
+    geoms: list[Geom]
+    geom_body: np.ndarray        # (G,) body of each geometry
+    dynamic: np.ndarray          # (Gd,) geometries whose body may move
+    static: np.ndarray           # (Gs,) the others
+    dynamic_position: np.ndarray  # (G,) position of each geometry in ``dynamic``, -1: static
+    dd: np.ndarray               # (P, 2) dynamic-dynamic pairs, allowed ones left out
+    ds: np.ndarray               # (Q, 2) dynamic-static pairs, allowed ones left out
+    tolerance: float             # penetration depth that counts (m)
+
+    def is_link(self, g: int) -> bool:
+        """Geometry g belongs to a robot link."""
+        return self.bodies[self.geoms[g].body].kind == "link"
+
+
+def geom_frames(geometry: PassGeometry,
+                place: dict[int, Placement]) -> tuple[np.ndarray, np.ndarray]:
+    """For the dynamic geometries: robot frame (-1: world) and T_frame_geom (Gd, 4, 4)."""
+    frames = np.empty(len(geometry.dynamic), np.int64)
+    local = np.empty((len(geometry.dynamic), 4, 4))
+    for k, g in enumerate(geometry.dynamic):
+        geom = geometry.geoms[g]
+        body = geometry.bodies[geom.body]
+        if body.kind == "link":
+            frames[k], local[k] = body.frame, geom.T_body_geom
+        else:
+            pl = place[geom.body]
+            frames[k], local[k] = pl.frame, pl.T @ geom.T_body_geom
+    return frames, local
 
 
 # ---------------------------------------------------------------------------------------------

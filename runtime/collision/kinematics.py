@@ -1,14 +1,13 @@
 """The collision checker's forward kinematics: a compiled loop over the robot model's program.
 
-Every state the checker sees goes through forward kinematics first. The JAX kernel of the
-artifact (:func:`tmpc.compiler.robot.make_fk_frames`) did this at ~0.2 ms per call plus ~8 us
-per state on the PR2, and a run loaded one XLA executable per padded batch size (0.2-0.3 s
-each, measured 2026-12-03: more than a third of a warm run's setup). The loop here
+Every state the checker sees goes through forward kinematics first. The loop
 (:func:`tmpc.runtime.collision.pass_kernel.kinematics`, built ahead of time with the first
-pass's candidate search) runs the same program (:func:`tmpc.compiler.robot.fk_tables`) with
-the same arithmetic at 3 us per call plus ~1.6 us per state, needs no padding and loads with
-the pass. The JAX kinematics stays in the artifact, where the projectors and distances call
-it inside their own kernels (they need its derivatives).
+pass's candidate search and loaded by :mod:`tmpc.runtime.collision.kernel`) runs the robot
+model's program (:func:`tmpc.compiler.robot.fk_tables`) with the same arithmetic as the JAX
+kinematics of the artifact (:func:`tmpc.compiler.robot.make_fk_frames`), for exactly the states
+given: it needs no padding and no executable per batch size. The JAX kinematics stays in the
+artifact, where the projectors and distances call it inside their own kernels (they need its
+derivatives).
 """
 
 from __future__ import annotations
@@ -16,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from tmpc.compiler.robot import RobotModel, fk_tables
-from tmpc.runtime.collision.spheres import _fall_back, pass_kernel
+from tmpc.runtime.collision.kernel import fall_back, pass_kernel
 
 
 class Kinematics:
@@ -36,6 +35,6 @@ class Kinematics:
         args = (Q, *self.tables, R, p)
         try:
             pass_kernel("kinematics")(*args)
-        except TypeError as exc:        # the built module refused (see spheres._fall_back)
-            _fall_back(exc, "kinematics")(*args)
+        except TypeError as exc:        # the built module refused (kernel.fall_back)
+            fall_back(exc, "kinematics")(*args)
         return R, p

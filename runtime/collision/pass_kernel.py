@@ -1,43 +1,35 @@
-"""The collision checker's compiled loops: the forward kinematics it runs every batch through
-(:func:`kinematics`) and the first pass's candidate search (:func:`candidates`:
-:meth:`FirstPass.candidates`'s stages, bounding balls, boxes against balls, covers, for every
-state in one call).
+"""The collision checker's compiled loops: the forward kinematics of a batch and the first pass's candidate search.
 
-The numpy version ran each stage over whole arrays of (pair, state) entries: ~60 numpy calls a
-batch, ~0.7 ms of fixed cost per call and mode against ~17 us per state (2026-12-03), and the
-optimal planner checks ~20 states per mode and call. Here one compiled loop visits each state
-and stops testing a pair at the first stage that rules it out, so there is no fixed cost to
-speak of and no intermediate array.
+:func:`kinematics` runs every batch the checker sees through the robot model's program;
+:func:`candidates` runs :meth:`tmpc.runtime.collision.first_pass.FirstPass.candidates`'s stages
+(bounding balls, boxes against balls, covers, convex hulls) for every state in one call. One
+compiled loop visits each state and stops testing a pair at the first stage that rules it out,
+so a call has no fixed cost per stage and no intermediate array (the optimal planner checks a
+few states per mode and call).
 
-The tests are the same ones, in the same order, on the same numbers (``spheres.py`` says why
-each is sound): a candidate pair survives (1) its two bounding balls meeting, or, for an
-obstacle, the robot's box of balls meeting the obstacle's world box and then the ball meeting
-the (rounded) obstacle box; (2) for two moving geometries, each one's oriented box meeting the
-other's ball; (3) a ball of one's cover meeting a ball of the other's cover (only the cover
-balls that meet the other's bounding ball take part), or a cover ball meeting the obstacle box;
-(4) the convex stage: GJK on the two convex hulls finding no plane that separates them by more
-than :data:`HULL_GAP` (:func:`_apart`; the plane it finds is checked directly on the points,
-so the stage rests on no tolerance of GJK's). Pairs whose
-:class:`~tmpc.runtime.collision.spheres.PairTable` proves them free skip the stages (the tables
-are read in numpy before the call).
+The tests, in order (:mod:`tmpc.runtime.collision.spheres` says why each is sound): a candidate
+pair survives (1) its two bounding balls meeting, or, for an obstacle, the robot's box of balls
+meeting the obstacle's world box and then the ball meeting the (rounded) obstacle box; (2) for
+two moving geometries, each one's oriented box meeting the other's ball; (3) a ball of one's
+cover meeting a ball of the other's cover (only the cover balls that meet the other's bounding
+ball take part), or a cover ball meeting the obstacle box; (4) the convex stage: GJK on the two
+convex hulls finding no plane that separates them by more than :data:`HULL_GAP` (:func:`apart`;
+the plane it finds is checked directly on the points, so the stage rests on no tolerance of
+GJK's). Pairs whose :class:`tmpc.runtime.collision.pair_table.PairTable` proves them free skip
+the stages (the tables are read in numpy before the call).
 
 The module is built without numba's reference counting (the scratch arrays come from the
-caller): each call of a helper taking arrays (~40 per GJK) cost an atomic incref and decref of
-each, and the counts kept LLVM from hoisting loads out of the loops. The candidate search per
-random PR2 state, interleaved in one process (best of 15, 2026-12-04): 4.4 us counted, 3.35 us
-not; inlining the GJK helpers as well gave 3.1 us but made the machine's one-time build 26 s
-instead of 10.5 s (it overlaps a cold run's compile, whose target is 20 s).
+caller): with it, each call of a helper taking arrays (~40 per GJK) takes an atomic incref and
+decref of each, and the counts keep LLVM from hoisting loads out of the loops. The GJK helpers
+are not inlined into the search: that would lengthen the machine's one-time build, which a
+cold run waits for.
 
-The convex stage halves the exact fcl queries (2026-12-03, PR2 among tables and sticks: 0.73 to
-0.38 per random state; the optimal planner on tmit-star's clutter: 127k to 71k over five seeds)
-at ~1 us of GJK per pair it sees; motion checks got ~20% faster, random states about even.
-
-A run loads these kernels built ahead of time (:data:`~tmpc.runtime.collision.spheres.PASS_KERNEL`,
-:mod:`tmpc.compiler.aot`: an extension module, no numba in the process); this module is its
-source, and numba's JIT of it is the fallback when that build fails (its machine code cached
-under ``$NUMBA_CACHE_DIR``, :mod:`tmpc.compiler.numbacfg`: 2.3 s to compile on a machine's
-first use, then ~0.25 s to load after numba's ~0.2 s import). Importing this module imports
-numba: only the build's child process and that fallback do.
+A run loads these kernels built ahead of time
+(:data:`tmpc.runtime.collision.kernel.PASS_KERNEL`, :mod:`tmpc.compiler.aot`: an extension
+module, no numba in the process); this module is its source, and numba's JIT of it is the
+fallback when that build fails (its machine code cached under ``$NUMBA_CACHE_DIR``,
+:mod:`tmpc.compiler.numbacfg`). Importing this module imports numba: only the build's child
+process and that fallback do. docs/collision.md has the measured costs.
 """
 
 from __future__ import annotations
@@ -234,7 +226,7 @@ def _tetrahedron(S, d):
 
 
 @numba.njit(cache=True, nogil=True)
-def _apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
+def apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
            d0, d1, d2, S, d):
     """Whether two convex sets are certainly more than :data:`HULL_GAP` apart: A the hull of
     pts[sa:ea] (coordinates of frame fa; f < 0: the world) grown by radius ra, B likewise.
@@ -299,7 +291,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
     primitive of half-extents ``box_x[w]`` (``box_x[w, 0] < 0``: no box; world pose box_R[w],
     box_t[w]); such a pair is its state's last (the obstacles come first). Scratch space,
     passed in (the function allocates nothing: its module is built without numba's reference
-    counting, :data:`~tmpc.runtime.collision.spheres.PASS_KERNEL`): c (M, 3), Wa and Wb
+    counting, :data:`tmpc.runtime.collision.kernel.PASS_KERNEL`): c (M, 3), Wa and Wb
     (K, 3), S (4, 3), dv (3,) floats, ia, ib and every (K,) integers (K: cover balls a
     geometry may have)."""
     B = R.shape[3]
@@ -350,7 +342,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                     continue
                 covers += 1
                 o = M + w
-                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and _apart(
+                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and apart(
                         hull_p, all_p, hull_s[m], hull_s[m + 1], all_s[m], all_s[m + 1],
                         hull_r[m], fpos[m], hull_s[o], hull_s[o + 1], all_s[o], all_s[o + 1],
                         hull_r[o], -1, R, p, s, t0 - c[m, 0], t1 - c[m, 1], t2 - c[m, 2], S, dv):
@@ -411,7 +403,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
             if not hit:
                 continue
             covers += 1
-            if hull_s[a + 1] > hull_s[a] and hull_s[b + 1] > hull_s[b] and _apart(
+            if hull_s[a + 1] > hull_s[a] and hull_s[b + 1] > hull_s[b] and apart(
                     hull_p, all_p, hull_s[a], hull_s[a + 1], all_s[a], all_s[a + 1], hull_r[a],
                     fa, hull_s[b], hull_s[b + 1], all_s[b], all_s[b + 1], hull_r[b], fb, R, p,
                     s, c[b, 0] - c[a, 0], c[b, 1] - c[a, 1], c[b, 2] - c[a, 2], S, dv):
@@ -429,8 +421,7 @@ def kinematics(Q, parent, child, origin_R, origin_p, kind, axis, source, scale, 
     the program of :class:`~tmpc.compiler.robot.FkTables` (its fields are the arguments between
     Q and R), the same products and the same Rodrigues formula as the JAX
     :func:`~tmpc.compiler.robot.make_fk` (a test holds the two within 1e-12). One loop over
-    the steps, the states innermost: 5-70x the JAX kernel's speed at 1-1024 states on the PR2
-    (dispatch, transposes; measured 2026-12-03), and no executable to load."""
+    the steps, the states innermost: no dispatch, no transposes and no executable to load."""
     B = Q.shape[0]
     for f in missing:
         for i in range(3):

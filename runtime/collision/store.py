@@ -1,8 +1,8 @@
 """The first pass's precomputed geometry, kept in the user cache between runs.
 
-Building a :class:`~tmpc.runtime.collision.spheres.FirstPass` costs about a second on the PR2:
-sphere covers of every link mesh (subdivision, clustering) and the pair tables of link pairs
-(fcl GJK distances on a grid of one or two joints). Both depend only on the mesh contents and the
+Most of building a :class:`tmpc.runtime.collision.first_pass.FirstPass` is sphere covers of
+every link mesh (subdivision, clustering) and the pair tables of link pairs (fcl GJK distances
+on a grid of one or two joints). Both depend only on the mesh contents and the
 robot's kinematics, not on the problem, so they are stored in ``<cache>/collision/<key>.npz``:
 
 * covers by the digest of the mesh's vertices and faces (and the cover parameters);
@@ -36,9 +36,8 @@ class FirstPassStore:
     def __init__(self, key: str):
         self.path = cache_root() / "collision" / f"{key}.npz"
         self._dirty = False
-        #: the arrays by name, then field (the file's ``name/field`` split at its last slash):
-        #: scanning every key per lookup made a batch plan on tmit-star's shelves 1.39 ms
-        #: instead of 1.15 (~30 lookups of ~270 keys)
+        #: the arrays by name, then field (the file's ``name/field`` split at its last slash),
+        #: so a lookup does not scan every key (a batch plan makes ~30 lookups)
         self._names: dict[str, dict[str, np.ndarray]] = {}
         for k, v in _read(self.path).items():
             name, _, field = k.rpartition("/")

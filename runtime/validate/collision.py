@@ -1,6 +1,6 @@
 """The validator's collision checker: raw python-fcl objects built here from the URDF's collision
 elements (read by :mod:`.validate_kinematics`) and the scene's shapes, independent of
-:class:`tmpc.runtime.collision.world.CollisionWorld` (its sphere first pass, pair tables, managers and
+:class:`tmpc.runtime.collision.CollisionWorld` (its sphere first pass, pair tables, managers and
 allowed-pair code are not used).
 
 What counts as a collision is the contract of docs/collision.md, implemented again:
@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tmpc.lang.world import dispatch_shape
 from tmpc.runtime.validate.kinematics import RobotDescription, UGeom
 
 DEPTH_EPS = 1e-9
@@ -71,16 +72,30 @@ def load_mesh(path: Path, scale) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
 def _fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0, 1.0, 1.0)):
     """(fcl geometry, hull geometry or None, AABB center, AABB half extents, polytope vertices
     or None); ``size`` is the box's full extents."""
+    return dispatch_shape(_FCL_SHAPE, kind, "the validator's fcl geometry")(
+        size, radius, length, path, scale)
+
+
+def _fcl_box(size, radius, length, path, scale):
     import fcl
-    if kind == "box":
-        s = np.asarray(size, float)
-        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s / 2
-        return fcl.Box(*s), None, np.zeros(3), s / 2, corners
-    if kind == "sphere":
-        return fcl.Sphere(radius), None, np.zeros(3), np.full(3, radius), None
-    if kind == "cylinder":
-        return fcl.Cylinder(radius, length), None, np.zeros(3), np.array([radius, radius,
-                                                                          length / 2]), None
+    s = np.asarray(size, float)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * s / 2
+    return fcl.Box(*s), None, np.zeros(3), s / 2, corners
+
+
+def _fcl_sphere(size, radius, length, path, scale):
+    import fcl
+    return fcl.Sphere(radius), None, np.zeros(3), np.full(3, radius), None
+
+
+def _fcl_cylinder(size, radius, length, path, scale):
+    import fcl
+    return fcl.Cylinder(radius, length), None, np.zeros(3), np.array([radius, radius,
+                                                                      length / 2]), None
+
+
+def _fcl_mesh(size, radius, length, path, scale):
+    import fcl
     v, f, hv, hf = load_mesh(path, scale)
     bvh = fcl.BVHModel()
     bvh.beginModel(len(v), len(f))
@@ -90,6 +105,11 @@ def _fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0
     hull = fcl.Convex(hv, len(hf), faces)
     lo, hi = v.min(0), v.max(0)
     return bvh, hull, (lo + hi) / 2, (hi - lo) / 2, hv
+
+
+#: the validator's own fcl geometry per kind (URDF geometry kinds and scene shape kinds)
+_FCL_SHAPE = {"box": _fcl_box, "sphere": _fcl_sphere, "cylinder": _fcl_cylinder,
+              "mesh": _fcl_mesh}
 
 
 def rigid_group(desc: RobotDescription) -> dict[str, str]:
@@ -376,8 +396,8 @@ def _polytope_depth(PA: np.ndarray, PB: np.ndarray) -> float | None:
     """The penetration depth of the convex hulls of the points PA and PB (world): the distance
     from the origin to the boundary of their Minkowski difference, the hull of every PB_i - PA_j
     (qhull), 0 when they do not overlap; None when qhull cannot build it (a flat difference).
-    scipy.spatial is imported here: 0.2 s and ~25 MB that every `tmpc run` (which imports the
-    validator) paid at the top, for the few validations that meet a deep contact."""
+    scipy.spatial is imported here, not at the top: every `tmpc run` imports the validator, and
+    only the few validations that meet a deep contact need qhull."""
     from scipy.spatial import ConvexHull, QhullError
     try:
         hull = ConvexHull((PB[:, None] - PA[None]).reshape(-1, 3))
@@ -388,13 +408,16 @@ def _polytope_depth(PA: np.ndarray, PB: np.ndarray) -> float | None:
 
 def _scene_shape(shape):
     """fcl geometry of a scene :class:`~tmpc.lang.world.scene.Shape` (boxes have half extents)."""
-    if shape.kind == "box":
-        return _fcl_shape("box", size=tuple(2 * s for s in shape.size))
-    if shape.kind == "sphere":
-        return _fcl_shape("sphere", radius=shape.radius)
-    if shape.kind == "cylinder":
-        return _fcl_shape("cylinder", radius=shape.radius, length=shape.length)
-    return _fcl_shape("mesh", path=shape.mesh, scale=shape.scale)
+    return dispatch_shape(_SCENE_SHAPE, shape, "the validator's scene geometry")(shape)
+
+
+#: a scene shape's arguments of :func:`_fcl_shape` per kind (a box's size: full extents)
+_SCENE_SHAPE = {
+    "box": lambda shape: _fcl_shape("box", size=tuple(2 * s for s in shape.size)),
+    "sphere": lambda shape: _fcl_shape("sphere", radius=shape.radius),
+    "cylinder": lambda shape: _fcl_shape("cylinder", radius=shape.radius, length=shape.length),
+    "mesh": lambda shape: _fcl_shape("mesh", path=shape.mesh, scale=shape.scale),
+}
 
 
 def _static(scene, o, seen=()) -> bool:

@@ -21,6 +21,7 @@ import numpy as np
 
 from tmpc.compiler.cache import cache_root, code_digest, package_version
 from tmpc.lang.fileio import atomic_write_bytes
+from tmpc.lang.world import dispatch_shape
 from tmpc.runtime.plans import pose_matrix
 from tmpc.runtime.validate import (
     Kinematics,
@@ -183,20 +184,44 @@ def _decimated(parts: list[TriMesh], faces: int) -> list[TriMesh]:
 def primitive(kind: str, size=(), radius=0.0, length=0.0) -> TriMesh:
     """A box (``size``: full extents), sphere or cylinder as triangles (trimesh's, through the
     cache)."""
+    create = dispatch_shape(_PRIMITIVE, kind, "a primitive's triangles")
+
     def make():
-        import trimesh
-        if kind == "box":
-            m = trimesh.creation.box(extents=size)
-        elif kind == "sphere":
-            m = trimesh.creation.icosphere(subdivisions=2, radius=radius)
-        else:
-            m = trimesh.creation.cylinder(radius=radius, height=length, sections=28)
+        m = create(size, radius, length)
         return [TriMesh(np.asarray(m.vertices, float), np.asarray(m.faces, np.int64))]
     key = ("primitive", kind, tuple(float(x) for x in size), float(radius), float(length))
     if key not in _LOADED:
         _LOADED[key] = _cached(list(key), b"", make)
     (m,) = _LOADED[key]
     return TriMesh(m.vertices, m.faces)
+
+
+def _trimesh_box(size, radius, length):
+    import trimesh
+    return trimesh.creation.box(extents=size)
+
+
+def _trimesh_sphere(size, radius, length):
+    import trimesh
+    return trimesh.creation.icosphere(subdivisions=2, radius=radius)
+
+
+def _trimesh_cylinder(size, radius, length):
+    import trimesh
+    return trimesh.creation.cylinder(radius=radius, height=length, sections=28)
+
+
+#: trimesh's primitives per kind (:func:`primitive`)
+_PRIMITIVE = {"box": _trimesh_box, "sphere": _trimesh_sphere, "cylinder": _trimesh_cylinder}
+#: a scene shape's triangles per kind (a box's size: half-extents)
+_SHAPE_MESHES = {
+    "box": lambda shape, faces: [primitive("box", tuple(2 * x for x in shape.size))],
+    "sphere": lambda shape, faces: [primitive("sphere", radius=shape.radius,
+                                              length=shape.length)],
+    "cylinder": lambda shape, faces: [primitive("cylinder", radius=shape.radius,
+                                                length=shape.length)],
+    "mesh": lambda shape, faces: _decimated(load_visual(shape.mesh, shape.scale), faces),
+}
 
 
 def object_color(name: str, movable: bool) -> tuple[float, float, float]:
@@ -289,11 +314,7 @@ class Poser:
         return [primitive(g.kind, g.size, g.radius, g.length)]
 
     def _shape_meshes(self, shape, faces) -> list[TriMesh]:
-        if shape.kind == "box":
-            return [primitive("box", tuple(2 * x for x in shape.size))]
-        if shape.kind in ("sphere", "cylinder"):
-            return [primitive(shape.kind, radius=shape.radius, length=shape.length)]
-        return _decimated(load_visual(shape.mesh, shape.scale), faces)
+        return dispatch_shape(_SHAPE_MESHES, shape, "a scene shape's triangles")(shape, faces)
 
     # ---- states ----------------------------------------------------------------------------
     def resolve(self, plan) -> list[dict]:

@@ -1,4 +1,4 @@
-"""Collision checking (tmpc.runtime.collision.world, .spheres): hand-made scenes with known answers,
+"""Collision checking (tmpc.runtime.collision: the world, its first pass and bounding volumes): hand-made scenes with known answers,
 the sound first pass against exact fcl, and agreement with an independent implementation
 (pinocchio + coal) on thousands of random PR2 and Panda states."""
 
@@ -23,10 +23,10 @@ TOOL = "r_gripper_tool_frame"
 
 def _load(name: str, **spec):
     from tmpc.compiler.robot import build_robot_model
-    from tmpc.runtime.collision.world import _jit_fk
+    from tmpc.runtime.collision.world import jit_fk
     tree = load_urdf(ROBOTS[name])
     model = build_robot_model(tree, RobotSpec(urdf=tree.path, **spec))
-    return model, _jit_fk(model)
+    return model, jit_fk(model)
 
 
 @pytest.fixture(scope="module")
@@ -335,9 +335,10 @@ def test_covers_contain_their_geometry():
 
 def _convex_pair(shapes, rng):
     """Two of ``shapes`` (shape, MeshData or None) at random poses 0-0.6 m apart: their fcl
-    objects (geometry, hull) and the convex stage's arrays for :func:`_apart`."""
+    objects (geometry, hull) and the convex stage's arrays for
+    :func:`tmpc.runtime.collision.pass_kernel.apart`."""
     from tmpc.runtime.collision.geometry import fcl_geometry
-    from tmpc.runtime.collision.spheres import _ragged, hull_points
+    from tmpc.runtime.collision.spheres import hull_points, ragged
     R, p = np.zeros((2, 3, 3, 1)), np.zeros((2, 3, 1))
     objs, fast, every, rad = [], [], [], []
     for k in range(2):
@@ -356,19 +357,19 @@ def _convex_pair(shapes, rng):
         fast.append(f)
         every.append(np.zeros((0, 3)) if e is None else e)
         rad.append(r)
-    hp, hs = _ragged(fast)
-    ap, as_ = _ragged(every)
+    hp, hs = ragged(fast)
+    ap, as_ = ragged(every)
     return objs, (hp, ap, hs[0], hs[1], as_[0], as_[1], rad[0], 0, hs[1], hs[2], as_[1], as_[2],
                   rad[1], 1, R, p, 0)
 
 
 def test_convex_stage_separates_only_what_fcl_finds_apart():
-    """GJK with a checked separating plane (pass_kernel._apart) on 1,500 random pairs of PR2
+    """GJK with a checked separating plane (pass_kernel.apart) on 1,500 random pairs of PR2
     link meshes, boxes, cylinders and spheres: a pair it calls apart never touches in fcl
     (sound), and every pair whose convex hulls fcl puts over 1 mm apart it calls apart (the
     stage works), from any starting direction."""
     from tmpc.runtime.collision.geometry import load_mesh
-    from tmpc.runtime.collision.pass_kernel import _apart
+    from tmpc.runtime.collision.pass_kernel import apart as separated
     rng = np.random.default_rng(4)
     tree = load_urdf(ROBOTS["pr2"])
     shapes = [(g.shape, load_mesh(g.shape.mesh, g.shape.scale)) for lk in tree.links[:40]
@@ -384,7 +385,7 @@ def test_convex_stage_separates_only_what_fcl_finds_apart():
         hull_gap = fcl.distance(a[1], b[1], fcl.DistanceRequest(), fcl.DistanceResult())
         p = args[-2]
         for start in (p[1, :, 0] - p[0, :, 0] + 1e-3, rng.normal(size=3)):
-            apart = _apart(*args, *start, S, d)
+            apart = separated(*args, *start, S, d)
             assert not (apart and touch)
             assert apart or hull_gap <= 1e-3 or touch, hull_gap
         seen["apart" if apart else ("touch" if touch else "near")] += 1
@@ -398,8 +399,8 @@ def test_a_hull_that_misses_a_vertex_is_checked_on_every_vertex():
     import trimesh
 
     from tmpc.runtime.collision.geometry import MeshData
-    from tmpc.runtime.collision.pass_kernel import _apart
-    from tmpc.runtime.collision.spheres import _ragged, hull_points
+    from tmpc.runtime.collision.pass_kernel import apart as separated
+    from tmpc.runtime.collision.spheres import hull_points, ragged
     cube = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
     spiky = trimesh.util.concatenate([cube, trimesh.creation.cone(0.05, 0.2)])
     V, F = np.asarray(spiky.vertices), np.asarray(spiky.faces)
@@ -412,15 +413,15 @@ def test_a_hull_that_misses_a_vertex_is_checked_on_every_vertex():
     bvh.endModel()
     S, d = np.empty((4, 3)), np.empty(3)
     R, p = np.tile(np.eye(3)[None, :, :, None], (2, 1, 1, 1)), np.zeros((2, 3, 1))
-    hp, hs = _ragged([fast, np.zeros((1, 3))])
-    ap, as_ = _ragged([every, np.zeros((0, 3))])
+    hp, hs = ragged([fast, np.zeros((1, 3))])
+    ap, as_ = ragged([every, np.zeros((0, 3))])
     for z, touching in ((0.19, True), (-0.25, False)):
         p[1, :, 0] = (0, 0, z)
         ball = fcl.CollisionObject(fcl.Sphere(0.02), fcl.Transform(np.eye(3), p[1, :, 0]))
         hit = fcl.collide(fcl.CollisionObject(bvh, fcl.Transform()), ball,
                           fcl.CollisionRequest(), fcl.CollisionResult())
         assert hit == touching
-        apart = _apart(hp, ap, hs[0], hs[1], as_[0], as_[1], r, 0, hs[1], hs[2], as_[1], as_[2],
+        apart = separated(hp, ap, hs[0], hs[1], as_[0], as_[1], r, 0, hs[1], hs[2], as_[1], as_[2],
                        0.02, 1, R, p, 0, 0.0, 0.0, z, S, d)
         assert apart == (not touching), z
 
@@ -483,7 +484,7 @@ def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
     tolerance + SURE_DEPTH inside a box, settled with no fcl query) are colliding pairs of exact
     fcl, with a held box and at a tolerance; each is its state's last candidate; and the states
     they settle save queries (same answers with the test switched off)."""
-    from tmpc.runtime.collision import CollisionWorld, spheres
+    from tmpc.runtime.collision import CollisionWorld, first_pass
     model, fk = pr2_mobile
     sc = mobile_scene(model, tables_and_sticks(3, 1.2))
     Q = random_states(model, np.random.default_rng(8), 1500)
@@ -502,12 +503,12 @@ def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
             assert frozenset((body(w, a), body(w, b))) in pairs
         ok = w.check_batch(Q, attached=att)
         off = CollisionWorld(sc, model, tolerance=tol)
-        old = spheres.SURE_DEPTH
+        old = first_pass.SURE_DEPTH
         try:
-            spheres.SURE_DEPTH = math.inf
+            first_pass.SURE_DEPTH = math.inf
             assert (off.check_batch(Q, attached=att) == ok).all()
         finally:
-            spheres.SURE_DEPTH = old
+            first_pass.SURE_DEPTH = old
         assert w.stats.sure > 0 and off.stats.sure == 0
         assert w.stats.queries < 0.9 * off.stats.queries, (w.stats, off.stats)
 
@@ -517,8 +518,8 @@ def test_first_pass_outputs_grow_when_a_batch_has_many_candidates(pr2_mobile, mo
     larger ones when they fill up: a batch buried in a box (most links a candidate in every
     state; no pair taken as sure to collide, which would end each state's list) gives, state
     for state, the candidates of the same states passed one at a time."""
-    from tmpc.runtime.collision import CollisionWorld, spheres
-    monkeypatch.setattr(spheres, "SURE_DEPTH", math.inf)
+    from tmpc.runtime.collision import CollisionWorld, first_pass
+    monkeypatch.setattr(first_pass, "SURE_DEPTH", math.inf)
     model, fk = pr2_mobile
     objs = [box("slab", (0.0, 0.0, 0.8), (1.0, 1.0, 0.6)),
             box("post", (0.3, 0.0, 1.0), (0.1, 0.1, 0.5), True)]
@@ -566,7 +567,8 @@ def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
     states, over several groups in one call (held objects, moved objects, empty motions),
     with and without the first pass, and confirms fewer pairs than the per-state answer."""
     from tmpc.runtime.collision import CollisionWorld
-    from tmpc.runtime.collision import world as cw
+    from tmpc.runtime.collision.exact import ExactChecker
+    from tmpc.runtime.collision.motion import bisection_ranks
     model, fk = pr2_mobile
     objs = four_tables()
     objs.append(box("stick1", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
@@ -592,13 +594,13 @@ def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
         got = w.check_segments(groups)
         assert [g.tolist() for g in got] == [t.tolist() for t in truth]
     calls = {"n": 0}
-    depth = cw.CollisionWorld._depth
+    depth = ExactChecker.depth
 
     def counting(self, a, b):
         calls["n"] += 1
         return depth(self, a, b)
 
-    cw.CollisionWorld._depth = counting
+    ExactChecker.depth = counting
     try:
         fast.check_segments(groups)
         by_segment = calls["n"]
@@ -606,10 +608,10 @@ def test_motion_segments_equal_exact_fcl_with_fewer_exact_queries(pr2_mobile):
         fast.check_batches([g[:3] for g in groups])
         per_state = calls["n"]
     finally:
-        cw.CollisionWorld._depth = depth
+        ExactChecker.depth = depth
     assert by_segment < 0.8 * per_state, (by_segment, per_state)
     # bisection order: the middle state first, then the middles of the halves
-    assert cw._bisection_ranks(np.array([1, 0, 5, 2])).tolist() == [0, 3, 1, 0, 4, 2, 1, 0]
+    assert bisection_ranks(np.array([1, 0, 5, 2])).tolist() == [0, 3, 1, 0, 4, 2, 1, 0]
     with pytest.raises(ValueError):
         fast.check_segments([(A[:3], None, None, [1, 1])])
 
@@ -623,10 +625,10 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
 
     from tmpc.compiler import aot
     from tmpc.runtime.collision import CollisionWorld
+    from tmpc.runtime.collision import kernel
     from tmpc.runtime.collision import pass_kernel as jit
-    from tmpc.runtime.collision import spheres
     model, fk = pr2_mobile
-    module, why = aot.obtain(spheres.PASS_KERNEL)
+    module, why = aot.obtain(kernel.PASS_KERNEL)
     assert module is not None, why
     objs = four_tables()
     objs.append(box("stick0", (1.6, 0.1, 0.9), (0.02, 0.02, 0.15), True))
@@ -636,7 +638,7 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
     rng = np.random.default_rng(4)
     Q = rng.uniform(model.lower, model.upper, (600, model.dof))
     Q[:, :2] = rng.uniform(-1.0, 1.0, (600, 2))
-    sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)
+    sig = numba.core.sigutils._parse_signature_string(dict(kernel.PASS_KERNEL.exports)
                                                       ["candidates"])
     seen = []
 
@@ -644,13 +646,13 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
         seen.append(tuple(numba.typeof(a) for a in args))
         return module.candidates(*args)
 
-    state = dict(spheres._KERNEL_STATE)
+    state = dict(kernel.KERNEL_STATE)
     try:
         for att in (None, {"stick0": (TOOL, np.eye(4))}):
             plan = fp.plan(*w.placements(attached=att))
             got = []
             for fn in (typed, jit.candidates):
-                spheres._KERNEL_STATE["candidates"] = fn
+                kernel.KERNEL_STATE["candidates"] = fn
                 got.append(fp.candidates(Q, plan))
             a, b = got
             assert len(a.states) > 100
@@ -658,7 +660,7 @@ def test_pass_built_ahead_of_time_equals_numba_jit_and_takes_what_the_pass_gives
                 assert (getattr(a, f) == getattr(b, f)).all()
             assert a.coarse == b.coarse
     finally:
-        spheres._KERNEL_STATE.update(state)
+        kernel.KERNEL_STATE.update(state)
     assert seen and all(t == tuple(sig.args) for t in seen), (seen[0], sig.args)
 
 
@@ -675,15 +677,15 @@ def test_exact_queries_ask_the_pairs_found_colliding_before_first(pr2_mobile):
     for w in (learned, forgetful):
         fp = w.first_pass()
         fp.hulls = [(np.zeros((0, 3)), None, 0.0)] * len(fp.hulls)
-    confirm = forgetful._confirm
+    confirm = forgetful.batch.confirm
 
     def forget(*args):
-        if forgetful._pair_tries is not None:
-            forgetful._pair_tries[:] = 0
-            forgetful._pair_hits[:] = 0
+        if forgetful.batch.pair_tries is not None:
+            forgetful.batch.pair_tries[:] = 0
+            forgetful.batch.pair_hits[:] = 0
         return confirm(*args)
 
-    forgetful._confirm = forget
+    forgetful.batch.confirm = forget
     a, b = learned.check_batch(Q), forgetful.check_batch(Q)
     assert (a == b).all() and 0.1 < (~a).mean() < 0.9
     assert learned.stats.queries < 0.85 * forgetful.stats.queries, \
@@ -693,7 +695,7 @@ def test_exact_queries_ask_the_pairs_found_colliding_before_first(pr2_mobile):
 def test_a_refused_call_of_the_built_pass_is_answered_by_the_jit(pr2_mobile, monkeypatch):
     """The pass's call reaches numba's JIT when the module built ahead of time refuses its
     arguments (a TypeError): the batch's answers are still exact fcl's, with a warning."""
-    from tmpc.runtime.collision import CollisionWorld, spheres
+    from tmpc.runtime.collision import CollisionWorld, kernel
     model, fk = pr2_mobile
     sc = mobile_scene(model, four_tables())
     w, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
@@ -701,21 +703,21 @@ def test_a_refused_call_of_the_built_pass_is_answered_by_the_jit(pr2_mobile, mon
     def refuses(*args):
         raise TypeError("No matching definition")
 
-    spheres.pass_kernel()                  # both functions loaded, then the pass refuses
-    state = dict(spheres._KERNEL_STATE)
+    kernel.pass_kernel()                  # both functions loaded, then the pass refuses
+    state = dict(kernel.KERNEL_STATE)
     state.update(candidates=refuses, why=None)
-    monkeypatch.setattr(spheres, "_KERNEL_STATE", state)
+    monkeypatch.setattr(kernel, "KERNEL_STATE", state)
     Q, _ = random_motions(model, np.random.default_rng(3), 200, 0.1)
     with pytest.warns(UserWarning, match="refused a call"):
         got = w.check_batch(Q)
     assert (got == exact.check_batch(Q)).all() and not got.all() and got.any()
-    assert spheres._KERNEL_STATE["why"].startswith("a refused call")
+    assert kernel.KERNEL_STATE["why"].startswith("a refused call")
 
 
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
-    from tmpc.runtime.collision.world import _world
+    from tmpc.runtime.collision.exact import world_transforms
     model, _ = pr2
     w = world(pr2)
     fp = w.first_pass()
@@ -732,10 +734,10 @@ def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     fpos, local, R, p = w.frames(Q, w.default_place)
     touching = np.zeros(len(Q), bool)
     for i in range(len(Q)):
-        T = _world(R[i], p[i], fpos, local)
+        T = world_transforms(R[i], p[i], fpos, local)
         for g in (table.ga, table.gb):
-            w._set(g, T[w._dyn_pos[g]])
-        touching[i] = w._depth(table.ga, table.gb) is not None
+            w.exact.set_pose(g, T[w.dynamic_position[g]])
+        touching[i] = w.exact.depth(table.ga, table.gb) is not None
     assert not (free & touching).any()
     assert touching.sum() > 50 and free.mean() > 0.6
     # the Lipschitz bound itself, where it matters: half a cell away from grid points whose
@@ -752,9 +754,9 @@ def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     fpos, local, R, p = w.frames(X, w.default_place)
     true = np.empty(len(X))
     for i in range(len(X)):
-        T = _world(R[i], p[i], fpos, local)
+        T = world_transforms(R[i], p[i], fpos, local)
         for g in (table.ga, table.gb):
-            w._set(g, T[w._dyn_pos[g]])
+            w.exact.set_pose(g, T[w.dynamic_position[g]])
         true[i] = fcl.distance(w.geoms[table.ga].obj, w.geoms[table.gb].obj,
                                fcl.DistanceRequest(), fcl.DistanceResult())
     assert len(X) > 50 and (true >= bound - 1e-9).all(), (true - bound).min()
@@ -928,3 +930,40 @@ def test_many_motions_interpolate_as_one_at_a_time(pr2_mobile):
     a[wrapping[0]], b[wrapping[0]] = 3.1, -3.1            # the short way: 0.083 rad, not 6.2
     Q, lens = w.interpolate_many(a[None], b[None], 0.02)
     assert lens.tolist() == [6] and np.abs(np.diff(Q[:, wrapping[0]])).max() < 0.02
+
+
+def test_the_jit_answers_as_the_built_module_and_exact_fcl(pr2_mobile, monkeypatch):
+    """With numba's JIT forced (what a machine runs when numba.pycc is gone or its build
+    fails: :mod:`tmpc.runtime.collision.kernel`), batches, batched motions and a motion give
+    the answers of the module built ahead of time and of exact fcl, state by state."""
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision import CollisionWorld, kernel
+    from tmpc.runtime.collision import pass_kernel as jit
+    model, _ = pr2_mobile
+    module, why = aot.obtain(kernel.PASS_KERNEL)
+    assert module is not None, why
+    objs = tables_and_sticks(3, 1.2)
+    objs.append(box("held", (0.0, 0.0, 0.0), (0.02, 0.02, 0.15), True))
+    sc = mobile_scene(model, objs)
+    exact = CollisionWorld(sc, model, first_pass=False)
+    A, B = random_motions(model, np.random.default_rng(11), 120, 0.3)
+    Q = np.concatenate([A, B])
+    held = {"held": (TOOL, np.eye(4))}
+    segs = [exact.interpolate(a, b, 0.05) for a, b in zip(A[:40], B[:40])]
+    group = (np.concatenate(segs), None, held, [len(s) for s in segs])
+    truth = (exact.check_batch(Q, attached=held), exact.check_segments([group])[0],
+             exact.check_motion(A[0], B[0], 0.05, details=False).t_first_collision)
+    assert truth[0].any() and not truth[0].all()
+    got = {}
+    for how in ("built", "jit"):
+        state = {"candidates": module.candidates, "kinematics": module.kinematics, "why": None}
+        if how == "jit":
+            state = {"candidates": jit.candidates, "kinematics": jit.kinematics, "why": "test"}
+        monkeypatch.setattr(kernel, "KERNEL_STATE", state)
+        w = CollisionWorld(sc, model)
+        got[how] = (w.check_batch(Q, attached=held), w.check_segments([group])[0],
+                    w.check_motion(A[0], B[0], 0.05, details=False).t_first_collision)
+        assert kernel.KERNEL_STATE["candidates"] is state["candidates"]
+    for how in got:
+        assert (got[how][0] == truth[0]).all() and (got[how][1] == truth[1]).all(), how
+        assert got[how][2] == truth[2], how
