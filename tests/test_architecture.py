@@ -32,7 +32,7 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
              "tmpc.runtime.editor.protocol",   # the worker answers `ping` before the compiler loads
              "tmpc.compiler.ground.lmcut",     # numba loads with A*'s compiled LM-cut only
-             "tmpc.runtime.collision.spheres",  # ... and with the first batched collision check
+             "tmpc.runtime.collision.kernel",  # ... and with the first batched collision check
              "tmpc.compiler.aot"}          # ... and in the child process building a kernel
 #: third-party libraries imported inside functions so that `tmpc check`, `tmpc --help` and the
 #: language server start without them

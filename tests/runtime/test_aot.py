@@ -36,26 +36,26 @@ def test_a_build_that_fails_is_recorded_and_said_once(kernel):
 
 def test_a_damaged_module_is_removed_and_the_jit_used(kernel, monkeypatch):
     aot = kernel
-    from tmpc.runtime.collision import spheres
-    k = spheres.PASS_KERNEL
+    from tmpc.runtime.collision import kernel as kernel_loader
+    k = kernel_loader.PASS_KERNEL
     k.path().parent.mkdir(parents=True)
     k.path().write_bytes(b"\x7fELF not really")
     module, why = aot.obtain(k)
     assert module is None and "did not load" in why and not k.path().exists()
-    monkeypatch.setattr(spheres, "_KERNEL_STATE",
+    monkeypatch.setattr(kernel_loader, "KERNEL_STATE",
                         {"candidates": None, "kinematics": None, "why": None})
     monkeypatch.setattr(aot, "obtain", lambda kernel: (None, why))
     with pytest.warns(UserWarning, match="using numba's JIT"):
-        fn = spheres.pass_kernel()
+        fn = kernel_loader.pass_kernel()
     from tmpc.runtime.collision import pass_kernel as jit
-    assert fn is jit.candidates and spheres.pass_kernel("kinematics") is jit.kinematics
+    assert fn is jit.candidates and kernel_loader.pass_kernel("kinematics") is jit.kinematics
 
 
 def test_reference_counting_is_part_of_a_build_s_name(kernel):
     """A module built without numba's reference counting is another module (the collision
     pass is one: its scratch arrays come from the caller)."""
-    from tmpc.runtime.collision import spheres
-    k = spheres.PASS_KERNEL
+    from tmpc.runtime.collision import kernel as kernel_loader
+    k = kernel_loader.PASS_KERNEL
     assert not k.nrt
     counted = kernel.Kernel(k.module, k.exports)
     assert counted.nrt and counted.name() != k.name() and counted.path() != k.path()
@@ -86,17 +86,17 @@ def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
     and the answer is the JIT's: not a traceback in the middle of planning."""
 
     from tmpc.runtime.collision import pass_kernel as jit
-    from tmpc.runtime.collision import spheres
+    from tmpc.runtime.collision import kernel as kernel_loader
 
     def picky(*args):
         raise TypeError("No matching definition for argument type(s) array(int32, 1d, C)")
 
-    monkeypatch.setattr(spheres, "_KERNEL_STATE",
+    monkeypatch.setattr(kernel_loader, "KERNEL_STATE",
                         {"candidates": picky, "kinematics": picky, "why": None})
     with pytest.warns(UserWarning, match="refused a call"):
-        kernel = spheres._fall_back(TypeError("int32"))
-    assert kernel is jit.candidates and spheres.pass_kernel() is jit.candidates
-    assert spheres.pass_kernel("kinematics") is jit.kinematics       # both switch
-    assert kernel(*spheres.empty_pass_args()) == (0, 0, 0)
+        kernel = kernel_loader.fall_back(TypeError("int32"))
+    assert kernel is jit.candidates and kernel_loader.pass_kernel() is jit.candidates
+    assert kernel_loader.pass_kernel("kinematics") is jit.kinematics       # both switch
+    assert kernel(*kernel_loader.empty_pass_args()) == (0, 0, 0)
     with pytest.raises(TypeError):             # the JIT refusing too is a real error
-        spheres._fall_back(TypeError("again"))
+        kernel_loader.fall_back(TypeError("again"))

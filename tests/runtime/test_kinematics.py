@@ -88,17 +88,17 @@ def test_built_ahead_of_time_equals_the_jit_and_takes_the_exported_types(case):
 
     from tmpc.compiler import aot
     from tmpc.runtime.collision import pass_kernel as jit
-    from tmpc.runtime.collision import spheres
+    from tmpc.runtime.collision import kernel as kernel_loader
     from tmpc.runtime.collision.kinematics import Kinematics
     _, model, _ = case
-    module, why = aot.obtain(spheres.PASS_KERNEL)
+    module, why = aot.obtain(kernel_loader.PASS_KERNEL)
     assert module is not None, why
-    sig = numba.core.sigutils._parse_signature_string(dict(spheres.PASS_KERNEL.exports)
+    sig = numba.core.sigutils._parse_signature_string(dict(kernel_loader.PASS_KERNEL.exports)
                                                       ["kinematics"])
     fk = Kinematics(model)
     Q = _states(model, np.random.default_rng(2), 50)
     seen, got = [], []
-    state = dict(spheres._KERNEL_STATE)
+    state = dict(kernel_loader.KERNEL_STATE)
 
     def typed(*args):
         seen.append(tuple(numba.typeof(a) for a in args))
@@ -106,10 +106,10 @@ def test_built_ahead_of_time_equals_the_jit_and_takes_the_exported_types(case):
 
     try:
         for fn in (typed, jit.kinematics):
-            spheres._KERNEL_STATE["kinematics"] = fn
+            kernel_loader.KERNEL_STATE["kinematics"] = fn
             got.append(fk(Q))
     finally:
-        spheres._KERNEL_STATE.update(state)
+        kernel_loader.KERNEL_STATE.update(state)
     (R, p), (Rj, pj) = got
     assert np.array_equal(R, Rj, equal_nan=True) and np.array_equal(p, pj, equal_nan=True)
     assert seen == [tuple(sig.args)], (seen, sig.args)
