@@ -32,7 +32,7 @@ from tmpc.compiler.cache import package_version, urdf_entry
 # re-exports it through tmpc.runtime.validate. Its forward kinematics (below) stays its own
 # (pinocchio / yourdfpy), independent of tmpc.compiler.robot.
 from tmpc.compiler.rotations import quat_matrix as quat_matrix
-from tmpc.compiler.rotations import quat_of as quat_of
+from tmpc.compiler.rotations import quat_from_matrix as quat_from_matrix
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.lang.world import find_file, import_yourdfpy, load_urdf
 

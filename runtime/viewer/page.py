@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.runtime.validate import heading, quat_of
+from tmpc.runtime.validate import heading, quat_from_matrix
 from tmpc.runtime.viewer.png import (
     BACKGROUND,
     CAMERA_YAW,
@@ -77,7 +77,7 @@ def page_data(world, plan, title: str) -> dict:
                       "T": [round(float(x), 6) for x in p.local.T.ravel()]})
     P = np.stack(s.poses) if s.poses else np.zeros((0, len(s.nodes), 4, 4))
     pos = P[..., :3, 3].astype("<f4")
-    rot = np.array([[quat_of(T[:3, :3]) for T in frame] for frame in P]).reshape(
+    rot = np.array([[quat_from_matrix(T[:3, :3]) for T in frame] for frame in P]).reshape(
         len(P), len(s.nodes), 4)
     rot = np.round(rot * 32767).astype("<i2")
     bounds = [list(b) for b in world.scene.bounds]
