@@ -3,7 +3,7 @@
 A :class:`WorldState` is a robot configuration ``q`` (layout of :class:`RobotModel`), the world
 poses of free objects, the objects held by robot frames (kinematic ``link`` effects: the object
 keeps the pose it had relative to the frame at the moment of the grasp) and the true discrete
-atoms. State JSON (DESIGN §8, planet/tmit-star field names)::
+atoms. State JSON (docs/design.md §8, planet/tmit-star field names)::
 
     {"joints": {name: value}, "base_pose": {"translation": [x, y, z], "rotation": [x, y, z, w]},
      "object_poses": {name: {"translation": [..], "rotation": [..]}},

@@ -3,7 +3,7 @@
 The ground problem is the symbolic half of a TMP problem, shared by the SAT task planner, the FF
 heuristic and the TMP runtime. It is *symbolic only*: geometric atoms stay references
 ``(predicate, objects)`` that the runtime decides with the distance functions compiled once per
-lifted predicate (DESIGN §4, "compile lifted, bind late").
+lifted predicate (docs/design.md §4, "compile lifted, bind late").
 
 What is in it (details in the docstrings of the ``ground_*`` modules):
 

@@ -7,7 +7,7 @@ A kernel is ``kernel(q, obj_T, obj_parent, args) -> (truth, distance)``:
   holding frame; ``obj_parent`` (M,) int: -1 for a free object, else the holding frame's id;
 * ``args`` (k,) int: entity ids of the predicate's arguments (the grounding, bound late).
 
-Batch with ``jax.vmap`` over any of them. Distances follow ../shared/MATH.md §A: comparisons
+Batch with ``jax.vmap`` over any of them. Distances follow docs/math.md §A: comparisons
 ``a <= b -> max(a - b, 0)``, ``a = b -> |a - b|``; ``and`` -> sqrt of the sum of squares ("l2",
 the thesis) or the maximum ("max", tmit-star's outer combinator); ``or`` -> min; ``not`` is pushed
 to the comparisons. ``smooth > 0`` replaces max/min of the combinators by log-sum-exp with that

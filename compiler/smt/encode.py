@@ -1,10 +1,10 @@
 """The step encoding of a :class:`~.ground.GroundProblem` for incremental SAT planning.
 
-Thesis Alg. 3 (MATH.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean state
+Thesis Alg. 3 (docs/math.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean state
 variables and steps ``1..T`` of Boolean action variables, one action per step. The encoding is a
 set of **templates**, SMT-LIB2 text with placeholders, instantiated once per layer or step by
 string replacement (``@K`` = this layer/step, ``@P`` = the previous layer). Building clauses as
-text and letting Z3 parse them is ~10x faster than z3's Python operators (DESIGN §6.3); the same
+text and letting Z3 parse them is ~10x faster than z3's Python operators (docs/design.md §6.3); the same
 text is what :func:`smtlib_templates` serializes for the artifact.
 
 Variables (``k`` a layer or step number):

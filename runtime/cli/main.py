@@ -2,7 +2,7 @@
 
 Each command is a small function registered in :data:`COMMANDS`; argparse's choices come from
 that registry. Commands import what they need lazily so `tmpc check` never loads JAX, Z3, OMPL or
-lupa. Exit codes (DESIGN §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
+lupa. Exit codes (docs/design.md §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
 plan/sample within limits, 70 internal error (a bug: rerun with --debug and report it).
 """
 

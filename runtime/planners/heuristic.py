@@ -1,7 +1,7 @@
 """The FF heuristic behind the thesis's minimal heuristic interface (Def. 4).
 
 ``suggest(symbolic_state) -> [(action, priority)]`` is all the chapter-2 sampler (Algorithm 1) asks
-of a heuristic. :class:`FFHeuristic` answers it with planet's priorities (``MATH.md`` §B) computed
+of a heuristic. :class:`FFHeuristic` answers it with planet's priorities (docs/math.md §B) computed
 from FF's relaxed planning graph; :class:`ScaledPriorities` is the sampler's table of entries
 with the Fail/Success counts that turn those priorities into its weights
 ``P(a) / (1 + fail + gamma * success)`` (the unified planner draws from it).
@@ -521,7 +521,7 @@ def _priority(h2: float) -> float:
 class ScaledPriorities:
     """Algorithm 1's table: one entry per (symbolic state, action) suggestion, with its priority,
     its Fail/Success counts and its scaled priority
-    ``P(a) = priority(a) / (1 + fail(a) + gamma * success(a))`` (``MATH.md`` §B; gamma >= 1).
+    ``P(a) = priority(a) / (1 + fail(a) + gamma * success(a))`` (docs/math.md §B; gamma >= 1).
     The unified planner samples from this table; there is no other implementation.
 
     Entries are numbered in the order they are added (:meth:`add`, or :meth:`expand`, which adds

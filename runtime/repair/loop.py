@@ -42,7 +42,7 @@ class LoopConfig:
     #: under active sampling, the probability of a naive draw anyway (§3.5.1)
     naive_probability: float = 0.2
     #: a counterexample must be this far outside the other formula (m / rad), against
-    #: tolerance flip-flops at the boundary (MATH.md §C.3c)
+    #: tolerance flip-flops at the boundary (docs/math.md §C.3c)
     margin: float = 1e-3
     #: active sampling also probes the current boundary: states inside the formula with every
     #: parameter grown by this fraction but outside it, and inside it but outside it shrunk

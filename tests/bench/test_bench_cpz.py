@@ -20,7 +20,7 @@ from tmpc.compiler.cpz import CPZ, solve
 pytestmark = pytest.mark.bench
 
 SETS = {
-    "ball (MATH.md §4.2, n=3, p=4)": CPZ.ball([0.5, -0.2, 1.0], 0.3),
+    "ball (docs/math.md §C.4.2, n=3, p=4)": CPZ.ball([0.5, -0.2, 1.0], 0.3),
     "README set (§4.6, n=2, p=3)": CPZ.make(
         [0, 0], [[1, 0, 1, -1], [0, 1, 1, 1]], [[1, 0, 1, 2], [0, 1, 1, 0], [0, 0, 1, 1]],
         [[1, -0.5, 0.5]], [0.5], [[0, 1, 2], [1, 0, 0], [0, 1, 0]]),

@@ -1,4 +1,4 @@
-"""Constrained polynomial zonotopes: the test vectors of MATH.md §C.4, the closed-form operations by
+"""Constrained polynomial zonotopes: the test vectors of docs/math.md §C.4, the closed-form operations by
 point containment (§4.7), emptiness (§4.8) and property tests (sampled points are in their set).
 
 Sets are small and share the padded kernel shapes, so the JAX compiles stay few."""
@@ -283,7 +283,7 @@ def test_inner_distance_by_ray_casting():
 
 @pytest.mark.slow
 def test_inner_distance_in_a_union():
-    """MATH.md: 0.2008 (exact 0.2); needs 2 rounds of containment iterations on the union
+    """docs/math.md §C.3b: 0.2008 (exact 0.2); needs 2 rounds of containment iterations on the union
     (about 20 s: opt-in with -m slow)."""
     assert cpz.inner_distance(cpz.union(DISK, BOX), [(0.8, 0)], rounds=2)[0] == \
         pytest.approx(0.2008, abs=5e-4)
@@ -302,7 +302,7 @@ def test_4_8_disk_pairs(center, empty, ls):
 def test_4_8_union_intersections():
     gap = cpz.intersect(cpz.union(DISK, BOX), CPZ.ball([-2.2, 0], 1))
     assert cpz.witness(gap)[0] == pytest.approx(0.0499, abs=2e-4)
-    assert cpz.is_empty(gap, timeout_ms=300) in (True, None)   # z3 took 50 s in MATH.md
+    assert cpz.is_empty(gap, timeout_ms=300) in (True, None)   # z3 may not decide it in time (docs/math.md §C.4.8)
     far = cpz.intersect(cpz.union(DISK, BOX), CPZ.ball([1, 3], 1))
     assert cpz.is_empty(far, timeout_ms=5000) is True
 
