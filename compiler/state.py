@@ -65,7 +65,7 @@ def initial_state(scene: Scene, model: RobotModel | None) -> WorldState:
 
 def world_poses(state: WorldState, model: RobotModel | None, frames=None) -> dict[str, np.ndarray]:
     """World pose of every object; held objects follow their frame (``frames``: FK output at
-    ``state.q`` as :class:`Frames`, computed if needed)."""
+    ``state.q`` as :class:`tmpc.compiler.robot.Frames`, computed if needed)."""
     out = dict(state.poses)
     if state.held:
         if frames is None:

@@ -5,7 +5,7 @@
 * each sub-package is entered through its door (its ``__init__``), never through a module inside;
 * an import inside a function is of a heavy third-party library (start-up time), or in the
   places that load tmpc code lazily for start-up on purpose: the CLI's command table, the planner
-  registry, ``tmpc check --static``, ``tmpc lsp`` and the editor worker's loop;
+  registry, ``tmpc check --static``, ``tmpc lsp`` and the language server worker's loop;
 * every package directory is installed (pyproject's package list).
 """
 
@@ -30,7 +30,7 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.planners.engines",   # the parser reads ENGINES; Z3 loads with SAT
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
-             "tmpc.runtime.editor.protocol",   # the worker answers `ping` before the compiler loads
+             "tmpc.runtime.lsp_worker.protocol",   # the worker answers `ping` before the compiler loads
              "tmpc.compiler.ground.lmcut",     # numba loads with A*'s compiled LM-cut only
              "tmpc.runtime.collision.spheres",  # ... and with the first batched collision check
              "tmpc.compiler.aot"}          # ... and in the child process building a kernel

@@ -1,4 +1,4 @@
-"""Analyses of a ground problem that the SAT encoding (:mod:`.smt`) builds on: which atoms are
+"""Analyses of a ground problem that the SAT encoding (:mod:`tmpc.compiler.smt.encode`) builds on: which atoms are
 relevant (read by something), the delete-relaxed planning graph levels (the first step each action
 can be, the goal's level, every reachable atom), and strongly connected components of the
 derived-atom dependency graph."""

@@ -23,7 +23,7 @@ def run_lsp(args) -> int:
     logging.basicConfig(stream=sys.stderr, level=logging.WARNING,
                         format="tmpc lsp: %(levelname)s %(message)s")
     worker = None if args.no_worker or not _has_worker() else \
-        [sys.executable, "-m", "tmpc.runtime.editor"]
+        [sys.executable, "-m", "tmpc.runtime.lsp_worker"]
     server = create_server(Hooks(explain=explain, warm=warm, worker_command=worker), _version())
     # a long-lived process that re-parses on every edit: the objects of start-up are never
     # scanned again, and the young generation is collected less often (measured: the p95 of
@@ -46,6 +46,6 @@ def _version() -> str:
 
 
 def _has_worker() -> bool:
-    """Whether the heavy-work worker (tmpc.runtime.editor) is installed."""
+    """Whether the heavy-work worker (tmpc.runtime.lsp_worker) is installed."""
     from importlib.util import find_spec
-    return find_spec("tmpc.runtime.editor") is not None
+    return find_spec("tmpc.runtime.lsp_worker") is not None

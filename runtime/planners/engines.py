@@ -3,9 +3,9 @@
 :data:`ENGINES` maps a name to an :class:`EngineSpec`; `tmpc plan --engine`'s choices and the
 engine test read it.
 
-* ``sat``: the incremental SAT planner (:mod:`.taskplan`): length-optimal; action costs are not
+* ``sat``: the incremental SAT planner (:mod:`tmpc.runtime.planners.taskplan`): length-optimal; action costs are not
   minimized. Honours ``--min-steps``/``--max-steps``.
-* ``astar``: A* with LM-cut (:mod:`.astar`): cost-optimal (length-optimal without action costs).
+* ``astar``: A* with LM-cut (:mod:`tmpc.runtime.planners.astar`): cost-optimal (length-optimal without action costs).
   Ignores the step limits; an exhausted search proves that no plan exists at all.
 * ``auto``: both at once in two forked processes within the time limit; the first *decisive*
   answer wins and the other process is stopped. Decisive: a plan proven optimal for the task
@@ -44,8 +44,8 @@ class Limits:
 class EngineResult:
     """What one engine found. ``optimal``: what the plan is proven optimal in (``length`` or
     ``cost``; ``""`` for a SAT plan of at least ``--min-steps`` steps that may not be shortest).
-    ``detail``: the SAT planner's :class:`~.taskplan.PlanResult` (actions removed) and setup
-    figures, or A*'s :class:`~.astar.SearchStats`. ``others``: the results of the portfolio's
+    ``detail``: the SAT planner's :class:`~tmpc.runtime.planners.taskplan.PlanResult` (actions removed) and setup
+    figures, or A*'s :class:`~tmpc.runtime.planners.astar.SearchStats`. ``others``: the results of the portfolio's
     other engines (``auto``)."""
 
     engine: str

@@ -3,13 +3,13 @@
 Independent of the planner's acceptance code for every fact it checks:
 
 * link poses: pinocchio (else a walk down the validator's own joint tree),
-  :mod:`.validate_kinematics` — not the JAX forward kinematics of ``compiler/robot.py``;
+  :mod:`tmpc.runtime.validate.kinematics` — not the JAX forward kinematics of ``compiler/robot.py``;
 * collisions: raw python-fcl objects built here from the URDF and the scene,
-  :mod:`.validate_collision` — not ``CollisionWorld`` and its sphere pass;
-* geometric predicates: the numpy AST interpreter :mod:`.evaluate` (Lua-defined ones: the Lua
+  :mod:`tmpc.runtime.validate.collision` — not ``CollisionWorld`` and its sphere pass;
+* geometric predicates: the numpy AST interpreter :mod:`tmpc.runtime.evaluate` (Lua-defined ones: the Lua
   function evaluated directly) — not the compiled JAX kernels;
 * discrete preconditions, effects and the goal: a lifted STRIPS/ADL simulator,
-  :mod:`.validate_logic` — not ``compiler/ground/problem.py``'s ground problem.
+  :mod:`tmpc.runtime.validate.logic` — not ``compiler/ground/problem.py``'s ground problem.
 
 Shared with the planner: the loaded scene, the checked domain/problem, and
 :class:`~tmpc.compiler.robot.RobotModel` only as a table of frame names and the configuration layout
