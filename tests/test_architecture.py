@@ -30,7 +30,7 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.planners.engines",   # the parser reads ENGINES; Z3 loads with SAT
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
-             "tmpc.runtime.lsp_worker.protocol",   # the worker answers `ping` before the compiler loads
+             "tmpc.runtime.lsp_worker.protocol",   # `ping` answers before the compiler loads
              "tmpc.compiler.ground.lmcut",     # numba loads with A*'s compiled LM-cut only
              "tmpc.runtime.collision.spheres",  # ... and with the first batched collision check
              "tmpc.compiler.aot"}          # ... and in the child process building a kernel

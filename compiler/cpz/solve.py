@@ -1,4 +1,5 @@
-"""Containment, distance, sampling, support and emptiness of CPZs (docs/math.md §C.3), in JAX with x64.
+"""Containment, distance, sampling, support and emptiness of CPZs (docs/math.md §C.3), in JAX
+with x64.
 
 Every query is one jitted solve over points x starts. The Levenberg-Marquardt solve behind
 containment and distance is specialised to the set's structure when it is small (its exponent

@@ -41,7 +41,8 @@ N_FACTS, TRUE, GOAL, PRE, EFF, PRE_OF, EFF_OF, HEADER = 0, 1, 2, 3, 5, 7, 9, 11
 
 def load() -> None:
     """Compile the kernel (the first time on a machine) or load it from numba's cache, by one
-    call on a two-fact task with the argument types :meth:`tmpc.compiler.ground.lmcut.LMCut.packed` uses."""
+    call on a two-fact task with the argument types
+    :meth:`tmpc.compiler.ground.lmcut.LMCut.packed` uses."""
     task = pack([(0,)], [(1,)], [[0], []], [[], [0]], 2, 0, 1)
     sizes = workspace_sizes(task, 1, 1)
     lmcut(task, np.zeros(1, np.int64), b"", np.zeros(2, np.int32), -1,

@@ -16,10 +16,10 @@ What is in it (details in the docstrings of the ``ground_*`` modules):
 * **Actions**: type-correct bindings whose precondition is not statically false and that are
   relaxed-reachable. Preconditions are normalized (quantifiers expanded over typed objects,
   ``imply`` rewritten, negation normal form, ``=`` and static atoms evaluated) and split into a
-  :class:`~tmpc.compiler.ground.formula.Condition`: ``pre_pos``/``pre_neg`` atom ids, ``pre_geometric`` literals,
-  and ``pre.extra``, a formula for disjunctions that remain (None for plain conjunctions).
-  Effects: ``adds``/``dels`` (add wins over delete), conditional effects evaluated in the
-  pre-state, kinematic link/unlink effects, and a cost.
+  :class:`~tmpc.compiler.ground.formula.Condition`: ``pre_pos``/``pre_neg`` atom ids,
+  ``pre_geometric`` literals, and ``pre.extra``, a formula for disjunctions that remain (None for
+  plain conjunctions). Effects: ``adds``/``dels`` (add wins over delete), conditional effects
+  evaluated in the pre-state, kinematic link/unlink effects, and a cost.
 * **Axioms** for derived predicates, stratified (:mod:`tmpc.compiler.ground.derived`).
 
 **States** are ``int`` bitsets over atom ids (bit ``i`` set = atom ``i`` true); derived bits are

@@ -1,11 +1,11 @@
 """The step encoding of a :class:`~tmpc.compiler.ground.GroundProblem` for incremental SAT planning.
 
-Thesis Alg. 3 (docs/math.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean state
-variables and steps ``1..T`` of Boolean action variables, one action per step. The encoding is a
-set of **templates**, SMT-LIB2 text with placeholders, instantiated once per layer or step by
+Thesis Alg. 3 (docs/math.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean
+state variables and steps ``1..T`` of Boolean action variables, one action per step. The encoding
+is a set of **templates**, SMT-LIB2 text with placeholders, instantiated once per layer or step by
 string replacement (``@K`` = this layer/step, ``@P`` = the previous layer). Building clauses as
-text and letting Z3 parse them is ~10x faster than z3's Python operators (docs/design.md §6.3); the same
-text is what :func:`smtlib_templates` serializes for the artifact.
+text and letting Z3 parse them is ~10x faster than z3's Python operators (docs/design.md §6.3); the
+same text is what :func:`smtlib_templates` serializes for the artifact.
 
 Variables (``k`` a layer or step number):
 
@@ -280,8 +280,8 @@ class Encoding:
     #: the first horizon at which the goal is relaxed-reachable (an admissible lower bound);
     #: None if never
     goal_level: int | None
-    #: disjoint action landmarks (ground action ids; :mod:`tmpc.compiler.smt.bound`), with step indicators
-    #: ``l<i>@k`` in the step template; empty if none were given
+    #: disjoint action landmarks (ground action ids; :mod:`tmpc.compiler.smt.bound`), with step
+    #: indicators ``l<i>@k`` in the step template; empty if none were given
     landmarks: tuple[frozenset[int], ...] = ()
     #: (assertions, variables) per template
     sizes: dict[str, tuple[int, int]] = field(default_factory=dict)

@@ -3,9 +3,9 @@
 Each turn draws a state (naively, or by active counterexample sampling from the difference of
 the last two formulas, §3.5.1), executes the action with the controller, stores the observation
 (committed before use), and compares the outcome with the model. An unexpected outcome starts a
-repair: the constraint hypothesis (the edit search of :mod:`tmpc.runtime.repair.search` on the unexpected
-observations and as many expected ones, the nearest to the boundary, with a held-back set for
-ties) and the effect hypothesis (the action applies as modelled but its effects are what was
+repair: the constraint hypothesis (the edit search of :mod:`tmpc.runtime.repair.search` on the
+unexpected observations and as many expected ones, the nearest to the boundary, with a held-back
+set for ties) and the effect hypothesis (the action applies as modelled but its effects are what was
 observed) are scored in the same error, and the lower one is kept; the constraint wins ties.
 Every random draw of turn ``k`` comes from ``default_rng([seed, trial, k])``, so a resumed loop
 draws what an uninterrupted one would have.

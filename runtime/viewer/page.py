@@ -11,15 +11,16 @@ three.js: three.js is ~700 kB minified before any data, needs a licence header a
 and a plan viewer uses a tiny part of it (no materials, loaders, scene graph or post-processing);
 the page for a PR2 clutter plan is 0.4–1.1 MB with the renderer under 20 kB.
 
-Meshes (:mod:`tmpc.runtime.viewer.scene`) are decimated by vertex clustering to at most :data:`HTML_FACES`
-triangles per file and stored quantized (uint16 per coordinate over the mesh's box, base64).
-Poses are computed with the validator's forward kinematics (pinocchio or yourdfpy) at every
-state and at intermediate configurations along each straight motion (no coordinate moves more
+Meshes (:mod:`tmpc.runtime.viewer.scene`) are decimated by vertex clustering to at most
+:data:`HTML_FACES` triangles per file and stored quantized (uint16 per coordinate over the mesh's
+box, base64). Poses are computed with the validator's forward kinematics (pinocchio or yourdfpy) at
+every state and at intermediate configurations along each straight motion (no coordinate moves more
 than ``VIEW_STEP`` between two), positions as float32 and quaternions as int16; the page
 interpolates linearly between these frames. Held objects ride on their frame (``mode.held``);
 in a bare legacy array, objects are interpolated between the states' poses.
 
-**The snapshot** (:mod:`tmpc.runtime.viewer.png`): a small numpy z-buffer rasterizer, Pillow for the file.
+**The snapshot** (:mod:`tmpc.runtime.viewer.png`): a small numpy z-buffer rasterizer, Pillow
+for the file.
 
 Every output is written to a temporary file beside it and renamed into place.
 """

@@ -1,5 +1,6 @@
-"""Constrained polynomial zonotopes: the test vectors of docs/math.md §C.4, the closed-form operations by
-point containment (§4.7), emptiness (§4.8) and property tests (sampled points are in their set).
+"""Constrained polynomial zonotopes: the test vectors of docs/math.md §C.4, the closed-form
+operations by point containment (§C.4.7), emptiness (§C.4.8) and property tests (sampled points
+are in their set).
 
 Sets are small and share the padded kernel shapes, so the JAX compiles stay few."""
 
@@ -302,7 +303,8 @@ def test_4_8_disk_pairs(center, empty, ls):
 def test_4_8_union_intersections():
     gap = cpz.intersect(cpz.union(DISK, BOX), CPZ.ball([-2.2, 0], 1))
     assert cpz.witness(gap)[0] == pytest.approx(0.0499, abs=2e-4)
-    assert cpz.is_empty(gap, timeout_ms=300) in (True, None)   # z3 may not decide it in time (docs/math.md §C.4.8)
+    # z3 may not decide it in time (docs/math.md §C.4.8)
+    assert cpz.is_empty(gap, timeout_ms=300) in (True, None)
     far = cpz.intersect(cpz.union(DISK, BOX), CPZ.ball([1, 3], 1))
     assert cpz.is_empty(far, timeout_ms=5000) is True
 
