@@ -257,7 +257,7 @@ def _collect_comment(tok: Token) -> Token:
 
 
 @lru_cache(maxsize=1)
-def _parser() -> Lark:
+def sexpr_parser() -> Lark:
     return Lark.open_from_package("tmpc.lang", "sexpr.lark", parser="lalr", lexer="basic",
                                   maybe_placeholders=False, cache=True,
                                   lexer_callbacks={"COMMENT": _collect_comment})
@@ -316,7 +316,7 @@ class _Builder:
 def _lex(text: str) -> tuple[list[Token], list[Token]]:
     """All tokens and the comments separately (the lexer never fails: BADCHAR catches `"`)."""
     tokens, comments = [], []
-    for tok in _parser().lex(text, dont_ignore=True):
+    for tok in sexpr_parser().lex(text, dont_ignore=True):
         if tok.type == "COMMENT":
             comments.append(tok)
         elif tok.type != "WS":
@@ -466,7 +466,7 @@ def parse_sexpr_lark(source: SourceFile) -> SexprDoc:
     builder = _Builder(path)
     _comment_sink.clear()
     try:
-        tree = _parser().parse(text)      # the fast path: one pass, comments via the callback
+        tree = sexpr_parser().parse(text)      # the fast path: one pass, comments via the callback
         comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in _comment_sink]
         return SexprDoc(source, builder.build(tree), comments, builder.bad)
     except UnexpectedInput:
@@ -482,7 +482,7 @@ def parse_sexpr_lark(source: SourceFile) -> SexprDoc:
 
 
 def _parse_tokens(tokens: list[Token]):
-    ip = _parser().parse_interactive("")
+    ip = sexpr_parser().parse_interactive("")
     for tok in tokens:
         ip.feed_token(tok)
     return ip.feed_eof()

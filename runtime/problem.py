@@ -89,7 +89,7 @@ def register_run_kernels(world, compiled) -> None:
     batch_shapes(compiled)
 
 
-class _Loads:
+class KernelLoads:
     """Calls (kernel loads) run by one background thread and, from :meth:`finish` on, by the
     calling thread as well: each call runs once, on whichever thread takes it first."""
 
@@ -187,7 +187,7 @@ class PlanningProblem:
         self._goal = None
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
-        self._warming: _Loads | None = None    # the warm-up's kernel loads, once begun
+        self._warming: KernelLoads | None = None    # the warm-up's kernel loads, once begun
         #: how the collision first pass runs (:meth:`warm_up` says), None before / without one
         self.collision_pass: str | None = None
         if warm_rng is not None:
@@ -252,7 +252,7 @@ class PlanningProblem:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
-        projectors not yet begun on this thread too (:class:`_Loads`). Never more than two
+        projectors not yet begun on this thread too (:class:`KernelLoads`). Never more than two
         executables load at once: three at once set the run's peak memory (tmit-star clutter
         pb_4, warm: 392-415 MiB with two background threads, 380-381 MiB with one, measured
         2026-12-03). This thread used to wait for the background thread alone: 1.82-1.97 s of
@@ -283,7 +283,7 @@ class PlanningProblem:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
         loads = [lambda f=f, a=a: np.asarray(f(starts, mode.obj_T, mode.obj_parent, a)[0])
                  for f, a in calls]
-        self._warming = _Loads(loads + list(also))
+        self._warming = KernelLoads(loads + list(also))
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so planning

@@ -205,7 +205,7 @@ def _lm_kernel(degree: int):
 UNROLL_P = 8
 
 
-def _unrolled_ok(S: CPZ) -> bool:
+def unrolled_ok(S: CPZ) -> bool:
     """Whether S's queries go through :func:`_lm_unrolled`: a few factors and a small model."""
     return 0 < S.p <= UNROLL_P and S.n * S.h + S.m * S.q <= 256
 
@@ -342,7 +342,7 @@ def _lm_unrolled(n: int, E_key: tuple, R_key: tuple):
 def _solve(S: CPZ, P, X: np.ndarray, A0: np.ndarray, rhos: np.ndarray):
     """The LM kernel for S (padded to ``P``) over the rows of ``X (N, n)``: the specialised
     :func:`_lm_unrolled` for small sets, the padded :func:`_lm_kernel` otherwise."""
-    if _unrolled_ok(S):
+    if unrolled_ok(S):
         n, h, m, q = S.n, S.h, S.m, S.q
         c, G, _, A, b, _ = P
         kernel = _lm_unrolled(n, _static(S.E), _static(S.R))

@@ -73,7 +73,7 @@ class LoopResult:
         return sum(not o.expected for o in self.observations)
 
 
-def _feats_of_coords(rw, coords: list[dict]) -> Features:
+def feats_of_coords(rw, coords: list[dict]) -> Features:
     """Features straight from drawn coordinates (equal to the DSL helpers' values at the state
     built from them; tests/runtime/test_repair.py checks that)."""
     t, truth = {}, {}
@@ -129,7 +129,7 @@ class Sampled:
             for j in rng.permutation(len(pairs)):
                 inside, other = pairs[j]
                 cs = rw.clause_coords(inside, rng)
-                f = _feats_of_coords(rw, cs)
+                f = feats_of_coords(rw, cs)
                 hit = np.flatnonzero(predicts(inside, f) & (signed(other, f) > cfg.margin))
                 if len(hit):
                     return cs[hit[0]], "active"

@@ -38,9 +38,9 @@ from tmpc.runtime.validate import heading, quat_from_matrix
 from tmpc.runtime.viewer.png import (
     BACKGROUND,
     CAMERA_YAW,
-    _as_plan,
-    _atomic_write,
+    as_plan,
     render,
+    write_atomic_bytes,
     write_png,
 )
 from tmpc.runtime.viewer.scene import Poser, decimate
@@ -152,13 +152,13 @@ _UI = """<div id="hud"><h1>{title}</h1><div id="label"></div></div>
 def write_html(world, plan_dict, path) -> int:
     """Write the animated page of ``plan_dict`` (a tmpc-plan/1 dict, a bare state array, or a
     :class:`~tmpc.runtime.plans.read.Plan`) to ``path``; returns its size in bytes."""
-    plan = _as_plan(plan_dict)
+    plan = as_plan(plan_dict)
     src = Path(world.config.path if world.config is not None else world.scene.path)
     name = f"{src.parent.name}/{src.name}" if src.parent.name else src.name
     text = html_page(page_data(world, plan, f"tmpc plan: {name} ({len(plan.states)} states, "
                                             f"{plan.action_count} actions)"))
     data = text.encode("utf-8")
-    _atomic_write(path, data)
+    write_atomic_bytes(path, data)
     return len(data)
 
 

@@ -78,7 +78,7 @@ def test_cpz_distance_batched_vs_scipy(monkeypatch):
     for label, S in SETS.items():
         rates = {N: _rate(S, N) for N in (1000, 10000)}
         with monkeypatch.context() as m:
-            m.setattr(solve, "_unrolled_ok", lambda S: False)
+            m.setattr(solve, "unrolled_ok", lambda S: False)
             padded = _rate(S, 10000)
         X = _points(S, 100)
         starts = np.vstack([np.zeros(S.p),

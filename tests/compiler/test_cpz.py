@@ -191,11 +191,11 @@ def test_specialised_kernel_is_the_padded_one(S, monkeypatch):
     directions), on sets with constant monomials, no constraints, GI factors."""
     from tmpc.compiler.cpz import solve
 
-    assert solve._unrolled_ok(cpz.dependent(S))
+    assert solve.unrolled_ok(cpz.dependent(S))
     X = np.random.default_rng(3).uniform(-3, 3, (20, S.n))
     d, alpha = cpz.nearest(S, X)
     inside = cpz.contains(S, X)
-    monkeypatch.setattr(solve, "_unrolled_ok", lambda S: False)
+    monkeypatch.setattr(solve, "unrolled_ok", lambda S: False)
     d_padded, _ = cpz.nearest(S, X)
     np.testing.assert_array_equal(np.isfinite(d), np.isfinite(d_padded))
     np.testing.assert_allclose(d[np.isfinite(d)], d_padded[np.isfinite(d)], atol=1e-8)
