@@ -82,8 +82,8 @@ class ValueSequence(Sequence):
 
 class Packed(ValueSequence):
     """The children of a long list (a problem's `:init`, `:objects`, a large goal) as columns
-    of tokens instead of objects: an SAtom with its span costs ~110 bytes and a fact ~500, 15x
-    its text; here a token costs 12. Indexing builds the SAtom/SList on demand, equal to the one
+    of tokens instead of objects: an SAtom with its span, and a fact of them, cost many times
+    their text; here a token is three small integers. Indexing builds the SAtom/SList on demand, equal to the one
     a tuple would hold; a slice is a view on the same columns.
 
     Columns: ``sym``, per token, the id of its text in ``names`` (a string's text keeps its
@@ -380,8 +380,8 @@ _TOKEN = re.compile(r'(\s+)|(;[^\n]*)|(\()|(\))|("(?:\\.|[^"\\\n])*")|(")|([^\s(
 
 def _scan(source: SourceFile) -> SexprDoc | None:
     """The fast path of well-formed text: the grammar's tokens by one regular expression and the
-    lists by a stack (about 4x faster than the LALR parse; the language server re-parses on
-    every edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
+    lists by a stack (cheaper than the LALR parse; the language server re-parses on every
+    edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
     Its result equals :func:`parse_sexpr_lark`'s (tested on the corpus and by hypothesis)."""
     text, path = source.text, source.path
     stack: list = [[]]          # the children of each open list: a list, or a Packed

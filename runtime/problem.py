@@ -253,14 +253,9 @@ class PlanningProblem:
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
         projectors not yet begun on this thread too (:class:`KernelLoads`). Never more than two
-        executables load at once: three at once set the run's peak memory (tmit-star clutter
-        pb_4, warm: 392-415 MiB with two background threads, 380-381 MiB with one, measured
-        2026-12-03). This thread used to wait for the background thread alone: 1.82-1.97 s of
-        warm setup on tmit-star's shelves pb_2 (five projectors) against 1.24-1.40 s now,
-        1.34-1.45 s against 0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on
-        clutter pb_4, for 1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3
-        interleaved runs). (The kinematics at two padded batch sizes were loaded here too, until
-        the collision checker's kinematics became a compiled loop of its own.) ``also``: more
+        executables load at once: three at once set the run's peak memory. This thread takes
+        projectors too rather than waiting for the background thread alone, which shortens
+        setup for a little more peak memory. ``also``: more
         calls, after the projectors (a planner's own set-up, ``warm_up_calls``); given once the
         loads have begun, they follow them."""
         if self._warming is not None:
@@ -298,7 +293,7 @@ class PlanningProblem:
         total = 1 + len(self._warming) + (first_pass is not None)
         done = 0
         if first_pass is not None:
-            if progress is not None:       # built on a machine's first run (~5 s, aot)
+            if progress is not None:       # built on a machine's first run (aot)
                 progress("loading kernels", done, total, "collision pass")
             why = first_pass.load_kernel()
             self.collision_pass = "built ahead of time" if why is None else \

@@ -3,8 +3,8 @@ with x64.
 
 Every query is one jitted solve over points x starts. The Levenberg-Marquardt solve behind
 containment and distance is specialised to the set's structure when it is small (its exponent
-matrices are static, so each lane is an unrolled scalar program XLA fuses: ~10x the padded
-kernel's rate, measured); other sets and the other solves use vmapped kernels whose shapes are
+matrices are static, so each lane is an unrolled scalar program XLA fuses, well above the
+padded kernel's rate); other sets and the other solves use vmapped kernels whose shapes are
 padded to power-of-two buckets (at least 4; padded factors, generators and constraints are zero
 and change nothing), so calls with other sets reuse compiled code. Points go in batches of
 ``SMALL`` or ``CHUNK``. JAX is configured and loaded on the first query
@@ -140,8 +140,8 @@ def _cholesky_solve(jnp, M, r) -> list:
 
 def _spd_solve(jnp, M, r):
     """``M^-1 r`` for a small symmetric positive definite matrix M: :func:`_cholesky_solve` up
-    to 8 x 8 (``jnp.linalg.solve`` was 10x slower for the 4 x 4 ball under vmap, measured),
-    ``jnp.linalg.solve`` above (the unrolled 16 x 16 took 9 s to compile)."""
+    to 8 x 8 (``jnp.linalg.solve`` is slow for tiny matrices under vmap), ``jnp.linalg.solve``
+    above (an unrolled factorisation of a larger matrix takes long to compile)."""
     p = len(r)
     if p > 8:
         return jnp.linalg.solve(M, r)

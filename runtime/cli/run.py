@@ -156,7 +156,7 @@ def _report(doc, result, setup: float) -> None:
 
 
 class SetupProgress:
-    """Setup's phases on stderr while a first run compiles (20-45 s of silence otherwise): a live
+    """Setup's phases on stderr while a first run compiles (a long silence otherwise): a live
     line on a terminal, else a plain line per phase and at most one every 5 s within one. Silent
     until the compile starts, so a run from the artifact cache prints nothing more."""
 

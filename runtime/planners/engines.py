@@ -94,8 +94,8 @@ def run_sat(problem: GroundProblem, limits: Limits) -> EngineResult:
 def run_astar(problem: GroundProblem, limits: Limits) -> EngineResult:
     from tmpc.runtime.planners.astar import AStarPlanner
     t0 = time.perf_counter()
-    # the limit is the search's: the planner's setup loads the compiled LM-cut, a compilation
-    # of ~6 s of CPU the first time on a machine
+    # the limit is the search's: the planner's setup loads the compiled LM-cut, compiled (seconds
+    # of CPU) the first time on a machine
     r = AStarPlanner(problem).plan(limits.time_limit)
     ids = [a.id for a in r.actions] if r.actions is not None else None
     return EngineResult("astar", r.status, ids, "cost" if problem.uses_costs else "length",

@@ -414,10 +414,8 @@ class FFHeuristic:
                 if level[p] != L:
                     continue
                 # The two counter loops below inline :meth:`_fire` on purpose (the same body
-                # twice): calling ``self._fire`` here made h() slower by 7-24% (clutter 5, 14,
-                # 14 + 14 red, blocksworld p01, towers 6 and 10: -23%, -22%, -19%, -7%, -13%,
-                # -24%; median of 7 paired runs of tests/bench/test_bench_heuristic.py's cases);
-                # only the tiny clutter 1 did not slow down. Keep both identical to _fire.
+                # twice): a method call per unit is a large share of h() on every benchmark
+                # problem (tests/bench/test_bench_heuristic.py). Keep both identical to _fire.
                 for u in watch1[p]:         # units needing p alone fire now
                     if u >= goal0:
                         return self._extract(state, level, sup, u, L, witness)
@@ -460,7 +458,7 @@ class FFHeuristic:
         return Analysis(math.inf, math.inf)
 
     def _fire(self, u: int, L: int, level, sup, layer, nxt) -> None:
-        # inlined twice in _explore's counter loops (speed, measured there)
+        # inlined twice in _explore's counter loops (a call per unit costs too much there)
         c = self.task.cost[u]
         lv = L + c
         for q in self.task.adds[u]:

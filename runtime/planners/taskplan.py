@@ -115,7 +115,7 @@ class TaskPlanner:
         self.template_seconds = time.perf_counter() - t0
         # a context of its own: Z3's models depend on the history of the context they are made
         # in (fresh names, term ids), so in the shared global one the second planner of a
-        # process found other plans than the first (measured); this way a plan depends only on
+        # process finds other plans than the first; this way a plan depends only on
         # the problem and what was added
         self.ctx = z3.Context()
         self.solver = z3.SolverFor("QF_FD", ctx=self.ctx)

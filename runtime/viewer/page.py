@@ -7,9 +7,9 @@ colours), the scene's objects, per-frame poses of every body, and a small WebGL2
 (``assets/viewer.js``, ~300 lines: one vertex buffer per mesh, flat Lambert shading from
 screen-space derivatives, per-frame model matrices, an orbit camera, a timeline with action
 labels, play/pause, speed, keyboard stepping). It is written for tmpc rather than vendoring
-three.js: three.js is ~700 kB minified before any data, needs a licence header and package data,
-and a plan viewer uses a tiny part of it (no materials, loaders, scene graph or post-processing);
-the page for a PR2 clutter plan is 0.4–1.1 MB with the renderer under 20 kB.
+three.js: three.js is large before any data, needs a licence header and package data, and a
+plan viewer uses a tiny part of it (no materials, loaders, scene graph or post-processing); the
+renderer here is a small part of a page, most of which is meshes and poses.
 
 Meshes (:mod:`tmpc.runtime.viewer.scene`) are decimated by vertex clustering to at most
 :data:`HTML_FACES` triangles per file and stored quantized (uint16 per coordinate over the mesh's
