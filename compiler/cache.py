@@ -88,10 +88,11 @@ def code_digest() -> str:
 
 def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
     """:func:`tmpc.lang.world.load_urdf` through the cache: a URDF parsed once is read back as
-    JSON (importing yourdfpy, and the trimesh it imports, would dominate a warm run's setup). The key is
-    the URDF's path and contents, the mesh search path and tmpc's code; the entry says whether
-    every mesh was found (``strict_meshes`` then needs no parse either). An entry whose meshes
-    are no longer there, or that cannot be read, is parsed again; errors come from the parse."""
+    JSON (importing yourdfpy, and the trimesh it imports, would dominate a warm run's setup).
+    The key is the URDF's path and contents, the mesh search path and tmpc's code; the entry
+    says whether every mesh was found (``strict_meshes`` then needs no parse either). An entry
+    whose meshes are no longer there, or that cannot be read, is parsed again; errors come from
+    the parse."""
     path = find_file(str(ref), Path(base))
     try:
         data = path.resolve().read_bytes() if path is not None else None

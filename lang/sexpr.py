@@ -83,8 +83,8 @@ class ValueSequence(Sequence):
 class Packed(ValueSequence):
     """The children of a long list (a problem's `:init`, `:objects`, a large goal) as columns
     of tokens instead of objects: an SAtom with its span, and a fact of them, cost many times
-    their text; here a token is three small integers. Indexing builds the SAtom/SList on demand, equal to the one
-    a tuple would hold; a slice is a view on the same columns.
+    their text; here a token is three small integers. Indexing builds the SAtom/SList on
+    demand, equal to the one a tuple would hold; a slice is a view on the same columns.
 
     Columns: ``sym``, per token, the id of its text in ``names`` (a string's text keeps its
     quotes), or :data:`OPEN` / :data:`CLOSE` for a bracket; ``pos``, its start offset; per child
