@@ -1,17 +1,16 @@
 """Kernels compiled ahead of time: a numba kernel built once per machine into a plain CPython
 extension module, so a run loads machine code without importing numba.
 
-Why: numba's JIT cache loads a kernel's machine code, but only after importing numba (~0.2 s)
-and initialising its CPU target (~0.25 s), and LLVM stays in the process (~140 MB of resident
-memory, measured 2026-12-03 with /proc/self/status). That was a third of a warm run's setup and
-put a clutter pb_4 run over 400 MB. numba's ahead-of-time compiler (``numba.pycc``) compiles the
-same njit functions for one explicit signature into an extension module that needs only numpy
-to import (~1 ms, ~1 MB).
+Why: numba's JIT cache loads a kernel's machine code, but only after importing numba and
+initialising its CPU target, and LLVM stays in the process (a large share of resident memory):
+a large part of a warm run's setup and of its peak memory. numba's ahead-of-time compiler
+(``numba.pycc``) compiles the same njit functions for one explicit signature into an extension
+module that needs only numpy to import (quick and small).
 
 How: :func:`obtain` returns the module of a :class:`Kernel` from the cache folder (``aot/``),
 named by a digest of the kernel's source file, its exports' signatures and the numba, numpy
 and Python versions, so a changed kernel builds anew. Without one it builds it in a child process
-(``python -m tmpc.compiler.aot``: numba, a C compiler and Python's headers, ~5 s) into a
+(``python -m tmpc.compiler.aot``: numba, a C compiler and Python's headers) into a
 temporary folder and renames the module into place, so concurrent runs never load a partial
 file. :func:`prepare` starts that build early, to overlap a run's other setup. When the build
 fails (no C compiler, say) the failure is recorded beside it, the caller falls back to numba's
@@ -43,7 +42,7 @@ from tmpc.lang.fileio import atomic_write_text
 
 #: the cache sub-folder of the built modules
 FOLDER = "aot"
-#: a build taking longer is abandoned (and recorded as failed): ~5 s is usual, 20 s under load
+#: a build taking longer is abandoned (and recorded as failed); far above a build's usual time
 BUILD_SECONDS = 600
 
 

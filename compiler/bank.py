@@ -162,8 +162,8 @@ class BankFunction:
 
     def specialize(self, sizes) -> "BankFunction":
         """Also export (and call) this function at these concrete batch sizes: a call with one
-        of them runs ``key@size``, which XLA loads without refining symbolic shapes (~0.08 s
-        per kernel and call site on the PR2); other sizes run the symbolic kernel."""
+        of them runs ``key@size``, which XLA loads without refining symbolic shapes (refining
+        them costs time per kernel and call site); other sizes run the symbolic kernel."""
         if self._batch_at is None:
             return self
         for n in sizes:
@@ -213,8 +213,7 @@ def _without_lapack(jitted: Callable) -> Callable:
     """``jitted`` (an exported kernel's call) lowered without JAX's LAPACK set-up.
 
     Lowering any exported kernel for the CPU first initialises JAX's LAPACK bindings, which
-    imports scipy.linalg for its function pointers: ~0.1 s of every run's setup (measured
-    2026-12-03: bundled example 1.37-1.41 -> 1.25-1.30 s to the end of the warm-up), for
+    imports scipy.linalg for its function pointers, a noticeable part of every run's setup, for
     kernels that call no LAPACK routine (a kernel that does names ``lapack_...`` custom calls in
     its serialized module, and the bank leaves it alone). The set-up is skipped only while this
     thread lowers such a kernel; anything else still gets it. If JAX moves the hook, nothing is

@@ -76,7 +76,7 @@ def package_version(pkg: str) -> str:
 def code_digest() -> str:
     """The digest of tmpc's own code and data files (and its version): cached artifacts and
     kernels made by other code are never reused, even under the same version number (a
-    development checkout). About 10 ms."""
+    development checkout)."""
     h = hashlib.sha256(package_version("tmpc").encode())
     for pkg in ("lang", "compiler", "runtime", "stdlib"):
         for base in sorted(Path(p) for p in importlib.import_module(f"tmpc.{pkg}").__path__):
@@ -88,10 +88,11 @@ def code_digest() -> str:
 
 def robot_tree(ref, base: Path, strict_meshes: bool = True) -> KinematicTree:
     """:func:`tmpc.lang.world.load_urdf` through the cache: a URDF parsed once is read back as
-    JSON (yourdfpy, and the trimesh it imports, cost ~0.7 s of a warm run's setup). The key is
-    the URDF's path and contents, the mesh search path and tmpc's code; the entry says whether
-    every mesh was found (``strict_meshes`` then needs no parse either). An entry whose meshes
-    are no longer there, or that cannot be read, is parsed again; errors come from the parse."""
+    JSON (importing yourdfpy, and the trimesh it imports, would dominate a warm run's setup).
+    The key is the URDF's path and contents, the mesh search path and tmpc's code; the entry
+    says whether every mesh was found (``strict_meshes`` then needs no parse either). An entry
+    whose meshes are no longer there, or that cannot be read, is parsed again; errors come from
+    the parse."""
     path = find_file(str(ref), Path(base))
     try:
         data = path.resolve().read_bytes() if path is not None else None

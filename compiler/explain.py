@@ -3,8 +3,8 @@
 The language server's hover shows what a geometric predicate *means once compiled*: its IR after
 helpers are inlined (and legacy Lua traced), as infix text over the predicate's parameters, and
 the distance the kernels minimise, written by the same rules as
-:meth:`tmpc.compiler.kernels.emit._Emitter.dist` (MATH.md §A): a comparison is a hinge, ``=`` an
-absolute value, ``and`` the l2 norm of its parts (or their max), ``or`` a min, ``not`` pushed to
+:meth:`tmpc.compiler.kernels.emit._Emitter.dist` (docs/math.md §A): a comparison is a hinge, ``=``
+an absolute value, ``and`` the l2 norm of its parts (or their max), ``or`` a min, ``not`` pushed to
 the leaves. Pure Python over :mod:`tmpc.compiler.ir`: no JAX.
 """
 

@@ -25,10 +25,10 @@ def _import_jax():
     """``import jax``, without reading every installed distribution's metadata.
 
     JAX 0.10's ``jax._src.numpy.array_constructors`` looks for a ROCm plugin at import by
-    parsing the METADATA of every installed distribution (``importlib.metadata.distributions``):
-    90 ms of CPU in each run's start-up in this project's venv of 135 distributions (measured;
-    more with the ``cluster`` extra). A plugin's distribution is named ``jax-...-plugin``, so while JAX is
-    imported the scan sees only the distributions whose folder name starts with ``jax``: the
+    parsing the METADATA of every installed distribution (``importlib.metadata.distributions``),
+    a cost in each run's start-up that grows with the environment (more with the ``cluster``
+    extra). A plugin's distribution is named ``jax-...-plugin``, so while JAX is imported the
+    scan sees only the distributions whose folder name starts with ``jax``: the
     same plugins are found, and the rest are not parsed.
     """
     import importlib.metadata as md
@@ -78,9 +78,8 @@ def _libc():
 
 def trim_heap() -> None:
     """Give the C heap's free pages back to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
-    Loading an XLA executable from the compilation cache leaves ~10-20 MB of freed buffers in
-    the heap that glibc keeps; trimming after each load kept a warm run of tmit-star's clutter
-    pb_4 at a lower peak (measured: 448 -> 340 MB after the warm-up)."""
+    Loading an XLA executable from the compilation cache leaves freed buffers in the heap that
+    glibc keeps; trimming after each load lowers a warm run's peak memory."""
     libc = _libc()
     if libc is not None:
         libc.malloc_trim(0)

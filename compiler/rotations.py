@@ -4,9 +4,11 @@ validator (whose *kinematics* stays its own: this is arithmetic, not forward kin
 
 Quaternion -> matrix is :func:`tmpc.lang.world.rotations.matrix_from_quat`'s formula in a numpy
 array (the JAX kernels put the same formula in a ``jax.numpy`` array through ``xp``).
-Matrix -> quaternion is written here for numpy and differs from the pure-Python one in the last
-bit only (normalised with ``np.linalg.norm``, as every numpy caller always did). The kernels'
-gradient-safe matrix -> quaternion and roll/pitch/yaw stay in :mod:`tmpc.compiler.kernels.emit`.
+Matrix -> quaternion, :func:`quat_from_matrix`, has the same name and method (Shepperd's) as the
+pure-Python :func:`tmpc.lang.world.rotations.quat_from_matrix` and differs from it in the last bit
+only: it normalises with ``np.linalg.norm``, which the seeded plans' bytes depend on
+(tests/compiler/test_rotations.py checks that the two agree). The kernels' gradient-safe
+matrix -> quaternion and roll/pitch/yaw stay in :mod:`tmpc.compiler.kernels.emit`.
 Importing this module costs numpy only (no JAX), so the validator may use it.
 """
 
@@ -25,9 +27,10 @@ def quat_matrix(q, xp=np):
     return xp.array(matrix_from_quat(q))
 
 
-def quat_of(R: np.ndarray) -> np.ndarray:
+def quat_from_matrix(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (x, y, z, w) of a rotation matrix, an array with w >= 0 (Shepperd's
-    method, normalised with ``np.linalg.norm``, then the sign made canonical)."""
+    method, normalised with ``np.linalg.norm``, then the sign made canonical). ``.tolist()``
+    gives the Python floats that state JSON and the evaluator's ``Quat`` hold."""
     m = R
     t = m[0, 0] + m[1, 1] + m[2, 2]
     if t > 0:
@@ -46,22 +49,18 @@ def quat_of(R: np.ndarray) -> np.ndarray:
     return -q if q[3] < 0 else q
 
 
-def matrix_to_quat(R: np.ndarray) -> tuple[float, float, float, float]:
-    """:func:`quat_of` as a tuple of Python floats (state JSON, the evaluator's ``Quat``)."""
-    return tuple(float(v) for v in quat_of(R))
-
-
-def transform(translation, rotation) -> np.ndarray:
-    """4x4 matrix of a translation (x, y, z) and a unit quaternion (x, y, z, w)."""
+def pose_matrix(pose_or_translation, rotation=None) -> np.ndarray:
+    """4x4 matrix of a pose: ``pose_matrix(pose)`` for a :class:`tmpc.lang.world.Pose`, or
+    ``pose_matrix(translation, rotation)`` for a translation (x, y, z) and a unit quaternion
+    (x, y, z, w)."""
+    if rotation is None:
+        translation, rotation = pose_or_translation.translation, pose_or_translation.rotation
+    else:
+        translation = pose_or_translation
     T = np.eye(4)
     T[:3, :3] = quat_matrix(rotation)
     T[:3, 3] = translation
     return T
-
-
-def pose_matrix(p) -> np.ndarray:
-    """4x4 matrix of a :class:`~tmpc.lang.world.scene.Pose`."""
-    return transform(p.translation, p.rotation)
 
 
 def rpy_of(R: np.ndarray) -> np.ndarray:
@@ -70,4 +69,14 @@ def rpy_of(R: np.ndarray) -> np.ndarray:
     return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])])
 
 
-__all__ = ["matrix_to_quat", "pose_matrix", "quat_matrix", "quat_of", "rpy_of", "transform"]
+# Old names still called by runtime/evaluate.py and runtime/viewer/scene.py (owned elsewhere
+# during issue P); remove once they call quat_from_matrix.
+quat_of = quat_from_matrix
+
+
+def matrix_to_quat(R: np.ndarray) -> tuple[float, float, float, float]:
+    """:func:`quat_from_matrix` as a tuple of Python floats (see the note above)."""
+    return tuple(quat_from_matrix(R).tolist())
+
+
+__all__ = ["pose_matrix", "quat_from_matrix", "quat_matrix", "rpy_of"]

@@ -3,7 +3,7 @@
 A :class:`WorldState` is a robot configuration ``q`` (layout of :class:`RobotModel`), the world
 poses of free objects, the objects held by robot frames (kinematic ``link`` effects: the object
 keeps the pose it had relative to the frame at the moment of the grasp) and the true discrete
-atoms. State JSON (DESIGN §8, planet/tmit-star field names)::
+atoms. State JSON (docs/design.md §8, planet/tmit-star field names)::
 
     {"joints": {name: value}, "base_pose": {"translation": [x, y, z], "rotation": [x, y, z, w]},
      "object_poses": {name: {"translation": [..], "rotation": [..]}},
@@ -22,8 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from tmpc.compiler.robot import RobotModel, base_yaw, homogeneous, make_fk
-from tmpc.compiler.rotations import matrix_to_quat as matrix_to_quat
-from tmpc.compiler.rotations import pose_matrix
+from tmpc.compiler.rotations import pose_matrix, quat_from_matrix
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import Pose, Scene
 
@@ -66,7 +65,7 @@ def initial_state(scene: Scene, model: RobotModel | None) -> WorldState:
 
 def world_poses(state: WorldState, model: RobotModel | None, frames=None) -> dict[str, np.ndarray]:
     """World pose of every object; held objects follow their frame (``frames``: FK output at
-    ``state.q`` as :class:`Frames`, computed if needed)."""
+    ``state.q`` as :class:`tmpc.compiler.robot.Frames`, computed if needed)."""
     out = dict(state.poses)
     if state.held:
         if frames is None:
@@ -100,7 +99,7 @@ def release(state: WorldState, model: RobotModel, obj: str, frames) -> WorldStat
 
 def _matrix_to_json(T: np.ndarray) -> dict:
     return {"translation": [float(v) for v in T[:3, 3]],
-            "rotation": [float(v) for v in matrix_to_quat(T[:3, :3])]}
+            "rotation": quat_from_matrix(T[:3, :3]).tolist()}
 
 
 def state_to_json(state: WorldState, model: RobotModel | None, frames=None) -> dict:
@@ -166,7 +165,7 @@ def state_from_json(data, scene: Scene, model: RobotModel | None, base: WorldSta
     if "base_pose" in data and model is not None and model.mobile_base:
         T = _pose(data["base_pose"], "/base_pose", path)
         q[0], q[1] = T[0, 3], T[1, 3]
-        q[2] = base_yaw(Pose(tuple(T[:3, 3]), matrix_to_quat(T[:3, :3])))
+        q[2] = base_yaw(Pose(tuple(T[:3, 3]), tuple(quat_from_matrix(T[:3, :3]).tolist())))
     poses = dict(base.poses)
     held = dict(base.held)
     for name, value in (data.get("object_poses") or {}).items():

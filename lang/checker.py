@@ -2,7 +2,8 @@
 
 It resolves every name, checks PDDL typing and arity, the kind rules of the tmpc extension
 (geometric atoms never in effects, discrete atoms never in `:semantics` bodies), expression types
-(via :mod:`.checker_expr`), and warns where a requirement flag is missing for a feature used.
+(via :mod:`tmpc.lang.checker_expr`), and warns where a requirement flag is missing for a
+feature used.
 """
 
 from __future__ import annotations

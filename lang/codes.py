@@ -133,7 +133,6 @@ _TABLE = (
     Code("E612", ERROR, "no plan of any length up to `--max-steps` (every horizon proven "
                         "impossible; exit 3)"),
     Code("E613", ERROR, "the time limit ran out; says which plan lengths were ruled out (exit 3)"),
-    Code("E614", ERROR, "the plan file cannot be written"),
     Code("E615", ERROR, "the two files given to `tmpc plan` are not one domain and one problem "
                         "for it"),
     Code("E616", ERROR, "no plan exists: A* (`--engine astar` or `auto`) explored every "

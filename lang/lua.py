@@ -81,6 +81,14 @@ def override_lua_limits(instructions: int | None = None, seconds: float | None =
     _OVERRIDES.update({k: v for k, v in given.items() if v is not None})
 
 
+def clear_lua_overrides() -> dict[str, int | float]:
+    """Forget the limits :func:`override_lua_limits` set; returns them (keyword arguments for
+    :func:`override_lua_limits`, to restore them)."""
+    saved = {k.removeprefix("lua_"): v for k, v in _OVERRIDES.items()}
+    _OVERRIDES.clear()
+    return saved
+
+
 def lua_limits(config) -> LuaLimits:
     """The sandbox's limits: the command line's (:func:`override_lua_limits`), else a run
     configuration's ``[planner]`` ``lua_instructions``, ``lua_seconds`` and ``lua_memory``, else

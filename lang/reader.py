@@ -68,8 +68,8 @@ def parse_source(source: SourceFile) -> ParsedFile:
 @contextmanager
 def _gc_paused():
     """The s-expression tree and the AST hold no reference cycles, so while a file is read the
-    cyclic collector only costs time: it walked the growing tree again and again (two thirds of
-    a 1 MB problem's parse, measured). Paused while reading; on again after, as it was."""
+    cyclic collector only costs time: it walks the growing tree again and again. Paused while
+    reading; on again after, as it was."""
     enabled = gc.isenabled()
     gc.disable()
     try:

@@ -299,13 +299,15 @@ def packed_facts(body: Packed, plain_head, numeric: bool, read) -> InitFacts:
 
 
 def plain_init_pred(text: str) -> bool:
-    """A fact's head that :meth:`Reader.init_item` reads as a predicate name of an atom."""
+    """A fact's head that :meth:`tmpc.lang.reader.Reader.init_item` reads as a predicate name of
+    an atom."""
     return text[0] not in '"?' and text.lower() not in ("=", "not") and \
         NUMBER_RE.match(text) is None
 
 
 def plain_goal_pred(text: str) -> bool:
-    """An atom's head :meth:`FormulaReader.formula` reads as a predicate name."""
+    """An atom's head :meth:`tmpc.lang.reader_formulas.FormulaReader.formula` reads as a
+    predicate name."""
     return text[0] not in '"?:' and text.lower() not in GOAL_HEADS and \
         NUMBER_RE.match(text) is None
 
@@ -314,5 +316,5 @@ GOAL_HEADS = frozenset({"and", "or", "not", "imply", "exists", "forall", *NUMERI
 
 
 def _plain_arg(text: str) -> bool:
-    """An argument :meth:`Reader.term` reads as a constant."""
+    """An argument :meth:`tmpc.lang.reader.Reader.term` reads as a constant."""
     return text[0] not in '"?:'

@@ -82,9 +82,9 @@ class ValueSequence(Sequence):
 
 class Packed(ValueSequence):
     """The children of a long list (a problem's `:init`, `:objects`, a large goal) as columns
-    of tokens instead of objects: an SAtom with its span costs ~110 bytes and a fact ~500, 15x
-    its text; here a token costs 12. Indexing builds the SAtom/SList on demand, equal to the one
-    a tuple would hold; a slice is a view on the same columns.
+    of tokens instead of objects: an SAtom with its span, and a fact of them, cost many times
+    their text; here a token is three small integers. Indexing builds the SAtom/SList on
+    demand, equal to the one a tuple would hold; a slice is a view on the same columns.
 
     Columns: ``sym``, per token, the id of its text in ``names`` (a string's text keeps its
     quotes), or :data:`OPEN` / :data:`CLOSE` for a bracket; ``pos``, its start offset; per child
@@ -257,7 +257,7 @@ def _collect_comment(tok: Token) -> Token:
 
 
 @lru_cache(maxsize=1)
-def _parser() -> Lark:
+def sexpr_parser() -> Lark:
     return Lark.open_from_package("tmpc.lang", "sexpr.lark", parser="lalr", lexer="basic",
                                   maybe_placeholders=False, cache=True,
                                   lexer_callbacks={"COMMENT": _collect_comment})
@@ -316,7 +316,7 @@ class _Builder:
 def _lex(text: str) -> tuple[list[Token], list[Token]]:
     """All tokens and the comments separately (the lexer never fails: BADCHAR catches `"`)."""
     tokens, comments = [], []
-    for tok in _parser().lex(text, dont_ignore=True):
+    for tok in sexpr_parser().lex(text, dont_ignore=True):
         if tok.type == "COMMENT":
             comments.append(tok)
         elif tok.type != "WS":
@@ -380,8 +380,8 @@ _TOKEN = re.compile(r'(\s+)|(;[^\n]*)|(\()|(\))|("(?:\\.|[^"\\\n])*")|(")|([^\s(
 
 def _scan(source: SourceFile) -> SexprDoc | None:
     """The fast path of well-formed text: the grammar's tokens by one regular expression and the
-    lists by a stack (about 4x faster than the LALR parse; the language server re-parses on
-    every edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
+    lists by a stack (cheaper than the LALR parse; the language server re-parses on every
+    edit). None when the brackets do not balance: :func:`parse_sexpr_lark` repairs them.
     Its result equals :func:`parse_sexpr_lark`'s (tested on the corpus and by hypothesis)."""
     text, path = source.text, source.path
     stack: list = [[]]          # the children of each open list: a list, or a Packed
@@ -466,7 +466,7 @@ def parse_sexpr_lark(source: SourceFile) -> SexprDoc:
     builder = _Builder(path)
     _comment_sink.clear()
     try:
-        tree = _parser().parse(text)      # the fast path: one pass, comments via the callback
+        tree = sexpr_parser().parse(text)      # the fast path: one pass, comments via the callback
         comments = [Comment(str(t), Span(path, t.start_pos, t.end_pos)) for t in _comment_sink]
         return SexprDoc(source, builder.build(tree), comments, builder.bad)
     except UnexpectedInput:
@@ -482,7 +482,7 @@ def parse_sexpr_lark(source: SourceFile) -> SexprDoc:
 
 
 def _parse_tokens(tokens: list[Token]):
-    ip = _parser().parse_interactive("")
+    ip = sexpr_parser().parse_interactive("")
     for tok in tokens:
         ip.feed_token(tok)
     return ip.feed_eof()

@@ -18,7 +18,7 @@ import numpy as np
 
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.kernels import make_projector, state_inputs, uniform_starts
-from tmpc.compiler.smt import _note  # the W613 "not checked" note
+from tmpc.compiler.smt import not_checked_note  # the W613 "not checked" note
 from tmpc.compiler.state import initial_state
 from tmpc.lang.diagnostics import Diagnostic, TmpcError, warning
 
@@ -58,8 +58,8 @@ def geometric_checks(world, budget_s: float = 60.0, seed: int = 0) -> list[Diagn
     for i, (kind, name, instances, span) in enumerate(todo):
         if time.perf_counter() - t0 > budget_s:
             left = ", ".join(f"{k} `{n}`" for k, n, _, _ in todo[i:])
-            out.append(_note(f"geometric checks not run (time budget {budget_s:g} s spent): "
-                             f"{left}", span))
+            out.append(not_checked_note(
+                f"geometric checks not run (time budget {budget_s:g} s spent): {left}", span))
             break
         formula = compiled.action(name) if kind == "action" else compiled.predicate(name)
         kernel, _ = compiled.kernels(formula)

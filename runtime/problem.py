@@ -89,7 +89,7 @@ def register_run_kernels(world, compiled) -> None:
     batch_shapes(compiled)
 
 
-class _Loads:
+class KernelLoads:
     """Calls (kernel loads) run by one background thread and, from :meth:`finish` on, by the
     calling thread as well: each call runs once, on whichever thread takes it first."""
 
@@ -187,7 +187,7 @@ class PlanningProblem:
         self._goal = None
         #: where setup time went (filled by :func:`tmpc.runtime.solve.plan_problem`)
         self.setup: dict = {}
-        self._warming: _Loads | None = None    # the warm-up's kernel loads, once begun
+        self._warming: KernelLoads | None = None    # the warm-up's kernel loads, once begun
         #: how the collision first pass runs (:meth:`warm_up` says), None before / without one
         self.collision_pass: str | None = None
         if warm_rng is not None:
@@ -252,15 +252,10 @@ class PlanningProblem:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
         mostly XLA reading its executable, which releases the GIL, so it overlaps the start
         checks and the collision warm-up on this thread, and :meth:`warm_up` then takes the
-        projectors not yet begun on this thread too (:class:`_Loads`). Never more than two
-        executables load at once: three at once set the run's peak memory (tmit-star clutter
-        pb_4, warm: 392-415 MiB with two background threads, 380-381 MiB with one, measured
-        2026-12-03). This thread used to wait for the background thread alone: 1.82-1.97 s of
-        warm setup on tmit-star's shelves pb_2 (five projectors) against 1.24-1.40 s now,
-        1.34-1.45 s against 0.99-1.07 s on shelves pb_4, 0.99-1.12 s against 0.86-0.97 s on
-        clutter pb_4, for 1-19 MB more peak RSS (clutter pb_4: 373 against 374-387 MB; 3
-        interleaved runs). (The kinematics at two padded batch sizes were loaded here too, until
-        the collision checker's kinematics became a compiled loop of its own.) ``also``: more
+        projectors not yet begun on this thread too (:class:`KernelLoads`). Never more than two
+        executables load at once: three at once set the run's peak memory. This thread takes
+        projectors too rather than waiting for the background thread alone, which shortens
+        setup for a little more peak memory. ``also``: more
         calls, after the projectors (a planner's own set-up, ``warm_up_calls``); given once the
         loads have begun, they follow them."""
         if self._warming is not None:
@@ -283,7 +278,7 @@ class PlanningProblem:
             calls.append((self.goal_formula()[1], np.zeros(0, np.int64)))
         loads = [lambda f=f, a=a: np.asarray(f(starts, mode.obj_T, mode.obj_parent, a)[0])
                  for f, a in calls]
-        self._warming = _Loads(loads + list(also))
+        self._warming = KernelLoads(loads + list(also))
 
     def warm_up(self, rng: np.random.Generator, progress=None) -> float:
         """Load (or, without an artifact, trace and compile) what planning will call, so planning
@@ -298,7 +293,7 @@ class PlanningProblem:
         total = 1 + len(self._warming) + (first_pass is not None)
         done = 0
         if first_pass is not None:
-            if progress is not None:       # built on a machine's first run (~5 s, aot)
+            if progress is not None:       # built on a machine's first run (aot)
                 progress("loading kernels", done, total, "collision pass")
             why = first_pass.load_kernel()
             self.collision_pass = "built ahead of time" if why is None else \

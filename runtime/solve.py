@@ -54,10 +54,10 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
 
 @contextmanager
 def _fewer_collections():
-    """Python's cycle collector runs ~100x less often during setup (its thresholds restored
-    after): setup allocates ~10^6 long-lived objects (JAX's modules, kernels, the grounding),
-    and the collections they triggered freed next to nothing and cost 8-14% of a warm run's
-    setup CPU (perf, 2026-12-03). Not off: tracing a cold compile leaves cyclic garbage."""
+    """Python's cycle collector runs far less often during setup (its thresholds restored
+    after): setup allocates many long-lived objects (JAX's modules, kernels, the grounding),
+    and the collections they trigger free next to nothing while costing a share of setup's
+    CPU. Not off: tracing a cold compile leaves cyclic garbage."""
     thresholds = gc.get_threshold()
     gc.set_threshold(max(thresholds[0], 100_000), *thresholds[1:])
     try:
@@ -81,7 +81,7 @@ def _set_up(input_path, planner, seed, overrides, setup_progress):
     problem = PlanningProblem(world, warm_rng=np.random.default_rng(seed))
     algo = make_planner(planner, problem, seed, overrides)
     # the planner's own set-up (the optimal planner's SAT task planner: importing Z3, its
-    # context and encoding, 0.05-0.06 s) runs beside the kernel loads, not in planning time
+    # context and encoding) runs beside the kernel loads, not in planning time
     problem.start_warm_up(np.random.default_rng(seed),
                           getattr(algo, "warm_up_calls", list)())
     problem.check_goal_reachable()

@@ -5,8 +5,10 @@
 * each sub-package is entered through its door (its ``__init__``), never through a module inside;
 * an import inside a function is of a heavy third-party library (start-up time), or in the
   places that load tmpc code lazily for start-up on purpose: the CLI's command table, the planner
-  registry, ``tmpc check --static``, ``tmpc lsp`` and the editor worker's loop;
-* every package directory is installed (pyproject's package list).
+  registry, ``tmpc check --static``, ``tmpc lsp`` and the language server worker's loop;
+* every package directory is installed (pyproject's package list);
+* no module (source or test) uses another module's private name: neither
+  ``from tmpc.x import _name`` nor ``module._name`` on an imported tmpc module.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
              "tmpc.runtime.planners.engines",   # the parser reads ENGINES; Z3 loads with SAT
              "tmpc.runtime.cli.check",     # `check --static` alone grounds and loads Z3/JAX
              "tmpc.runtime.cli.lsp",       # the compiler (numpy) on the first hover, not at start
-             "tmpc.runtime.editor.protocol",   # the worker answers `ping` before the compiler loads
+             "tmpc.runtime.lsp_worker.protocol",   # `ping` answers before the compiler loads
              "tmpc.compiler.ground.lmcut",     # numba loads with A*'s compiled LM-cut only
              "tmpc.runtime.collision.kernel",  # ... and with the first batched collision check
              "tmpc.compiler.aot"}          # ... and in the child process building a kernel
@@ -171,6 +173,84 @@ def test_no_library_module_imports_a_command_module():
     bad = [f"{MODULES[m].relative_to(ROOT)} imports {t}" for m, ts in _graph().items()
            for t in ts if t.startswith("tmpc.runtime.cli") and not m.startswith("tmpc.runtime.cli")]
     assert not bad, bad
+
+
+def _test_modules() -> dict[str, Path]:
+    return {".".join(["tests", *p.relative_to(ROOT / "tests").with_suffix("").parts]): p
+            for p in sorted((ROOT / "tests").rglob("*.py"))}
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def private_uses(path: Path, module: str, source: str | None = None) -> list[str]:
+    """``from tmpc.x import _name`` and ``m._name`` (``m`` an imported tmpc module, ``_name``
+    one of its private names, or a private attribute of one of its names) in ``path``."""
+    tree = ast.parse(source if source is not None else path.read_text(encoding="utf-8"))
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    aliases: dict[str, str] = {}         # local name -> the tmpc module it is
+    bad = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")
+                base = ".".join(parts[: len(parts) - node.level + 1] + ([base] if base else []))
+            if not base.startswith("tmpc"):
+                continue
+            for alias in node.names:
+                if _private(alias.name):
+                    bad.append(f"{node.lineno}: from {base} import {alias.name}")
+                elif f"{base}.{alias.name}" in MODULES:
+                    aliases[alias.asname or alias.name] = f"{base}.{alias.name}"
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.startswith("tmpc"):
+                    aliases[alias.asname or alias.name.split(".")[0]] = \
+                        alias.name if alias.asname else alias.name.split(".")[0]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr):
+            chain, value = [], node.value
+            while isinstance(value, ast.Attribute):
+                chain.append(value.attr)
+                value = value.value
+            if isinstance(value, ast.Name) and value.id in aliases:
+                bad.append(f"{node.lineno}: "
+                           f"{'.'.join([aliases[value.id], *reversed(chain), node.attr])}")
+    return bad
+
+
+#: Files other helpers own while issue P's parts are written in parallel (their private names
+#: come from modules they own); the coordinator gives the names public spellings after merging
+#: and empties this set.
+PRIVATE_NOT_YET = {"runtime/collision/kinematics.py", "tests/runtime/test_collision.py",
+                   "tests/runtime/test_optimal.py", "tests/runtime/test_aot.py",
+                   "tests/runtime/test_kinematics.py", "tests/runtime/test_validate.py"}
+
+
+def test_no_private_names_across_modules():
+    bad = []
+    for m, path in {**MODULES, **_test_modules()}.items():
+        rel = str(path.relative_to(ROOT))
+        if rel in PRIVATE_NOT_YET:
+            continue
+        bad += [f"{rel}:{use}" for use in private_uses(path, m)]
+    assert not bad, "private names used from another module (give them a public name):\n" + \
+        "\n".join(bad)
+
+
+def test_the_private_name_check_can_fail():
+    """A planted ``from ... import _x`` and a planted ``module._x`` are both caught."""
+    planted = ("from tmpc.compiler.smt.checks import _hidden\n"
+               "import tmpc.lang.lua\n"
+               "from tmpc.lang import lua\n"
+               "a = tmpc.lang.lua._OVERRIDES\n"
+               "b = lua._OVERRIDES\n"
+               "c = lua.__name__\n")
+    found = private_uses(ROOT / "runtime" / "planted.py", "tmpc.runtime.planted", planted)
+    assert found == ["1: from tmpc.compiler.smt.checks import _hidden",
+                     "4: tmpc.lang.lua._OVERRIDES", "5: tmpc.lang.lua._OVERRIDES"], found
 
 
 @pytest.mark.parametrize("rule", [test_no_import_cycles, test_layers_point_one_way])

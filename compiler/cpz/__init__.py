@@ -1,5 +1,5 @@
-"""tmpc.compiler.cpz: constrained polynomial zonotopes (MATH.md §C). ``sets`` holds the CPZ type,
-its constructors and the closed-form operations in numpy; ``solve`` answers containment,
+"""tmpc.compiler.cpz: constrained polynomial zonotopes (docs/math.md §C). ``sets`` holds the CPZ
+type, its constructors and the closed-form operations in numpy; ``solve`` answers containment,
 distance, signed distance, sampling, support and emptiness queries as batched JAX solves (JAX is
 loaded on the first query, z3 by :func:`is_empty` only).
 """

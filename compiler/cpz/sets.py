@@ -1,4 +1,5 @@
-"""Constrained polynomial zonotopes and their closed-form operations, in numpy (docs: MATH.md §C).
+"""Constrained polynomial zonotopes and their closed-form operations, in numpy
+(docs/math.md §C).
 
 ``CPZ = {c + G m(alpha, E) + GI beta | A m(alpha, R) = b, alpha in [-1,1]^p, beta in [-1,1]^d}``
 with the monomial vector ``m(alpha, E)_i = prod_k alpha_k ** E[k, i]``. Every binary operation

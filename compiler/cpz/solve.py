@@ -1,9 +1,10 @@
-"""Containment, distance, sampling, support and emptiness of CPZs (MATH.md §C.3), in JAX with x64.
+"""Containment, distance, sampling, support and emptiness of CPZs (docs/math.md §C.3), in JAX
+with x64.
 
 Every query is one jitted solve over points x starts. The Levenberg-Marquardt solve behind
 containment and distance is specialised to the set's structure when it is small (its exponent
-matrices are static, so each lane is an unrolled scalar program XLA fuses: ~10x the padded
-kernel's rate, measured); other sets and the other solves use vmapped kernels whose shapes are
+matrices are static, so each lane is an unrolled scalar program XLA fuses, well above the
+padded kernel's rate); other sets and the other solves use vmapped kernels whose shapes are
 padded to power-of-two buckets (at least 4; padded factors, generators and constraints are zero
 and change nothing), so calls with other sets reuse compiled code. Points go in batches of
 ``SMALL`` or ``CHUNK``. JAX is configured and loaded on the first query
@@ -139,8 +140,8 @@ def _cholesky_solve(jnp, M, r) -> list:
 
 def _spd_solve(jnp, M, r):
     """``M^-1 r`` for a small symmetric positive definite matrix M: :func:`_cholesky_solve` up
-    to 8 x 8 (``jnp.linalg.solve`` was 10x slower for the 4 x 4 ball under vmap, measured),
-    ``jnp.linalg.solve`` above (the unrolled 16 x 16 took 9 s to compile)."""
+    to 8 x 8 (``jnp.linalg.solve`` is slow for tiny matrices under vmap), ``jnp.linalg.solve``
+    above (an unrolled factorisation of a larger matrix takes long to compile)."""
     p = len(r)
     if p > 8:
         return jnp.linalg.solve(M, r)
@@ -204,7 +205,7 @@ def _lm_kernel(degree: int):
 UNROLL_P = 8
 
 
-def _unrolled_ok(S: CPZ) -> bool:
+def unrolled_ok(S: CPZ) -> bool:
     """Whether S's queries go through :func:`_lm_unrolled`: a few factors and a small model."""
     return 0 < S.p <= UNROLL_P and S.n * S.h + S.m * S.q <= 256
 
@@ -341,7 +342,7 @@ def _lm_unrolled(n: int, E_key: tuple, R_key: tuple):
 def _solve(S: CPZ, P, X: np.ndarray, A0: np.ndarray, rhos: np.ndarray):
     """The LM kernel for S (padded to ``P``) over the rows of ``X (N, n)``: the specialised
     :func:`_lm_unrolled` for small sets, the padded :func:`_lm_kernel` otherwise."""
-    if _unrolled_ok(S):
+    if unrolled_ok(S):
         n, h, m, q = S.n, S.h, S.m, S.q
         c, G, _, A, b, _ = P
         kernel = _lm_unrolled(n, _static(S.E), _static(S.R))

@@ -1,17 +1,17 @@
-"""The grounding engine behind :func:`tmpc.compiler.ground.problem.ground`.
+"""The grounding engine behind :func:`tmpc.compiler.ground.ground`.
 
 Four passes:
 
-1. **Lift** every action, derived rule and the goal to normal form (:mod:`.ground_lift`) and
-   classify predicates: *geometric* (decided by geometry), *derived*, *fluent* (in some effect)
-   and *static* (the rest: evaluated here from ``:init``).
-2. **Count** each schema's bindings (:mod:`.ground_bind`; E600 past the limit).
+1. **Lift** every action, derived rule and the goal to normal form
+   (:mod:`tmpc.compiler.ground.lift`) and classify predicates: *geometric* (decided by geometry),
+   *derived*, *fluent* (in some effect) and *static* (the rest: evaluated here from ``:init``).
+2. **Count** each schema's bindings (:mod:`tmpc.compiler.ground.bind`; E600 past the limit).
 3. **Explore** (rounds until no new atom is reached): enumerate each schema's bindings whose
    top-level positive literals hold in the static facts plus the atoms reached so far (a join,
-   :class:`.ground_bind.Join`), instantiate the new ones — static atoms, ``=`` and numeric
-   comparisons become constants as the formula is built; fluent atoms get provisional ids — and
-   feed them to the delete-relaxed exploration (:mod:`.ground_reach`) as units: the action, each
-   conditional effect (with the action's precondition), each axiom.
+   :class:`tmpc.compiler.ground.bind.Join`), instantiate the new ones — static atoms, ``=`` and
+   numeric comparisons become constants as the formula is built; fluent atoms get provisional ids —
+   and feed them to the delete-relaxed exploration (:mod:`tmpc.compiler.ground.reach`) as units: the
+   action, each conditional effect (with the action's precondition), each axiom.
 4. **Finalize**: keep reached atoms plus goal atoms, renumber them (predicate order, then object
    order), simplify every formula with "never reached = false", and build the result.
 """
@@ -76,7 +76,7 @@ class _Schema:
     """An action or derived rule, lifted: precondition (rule body), flattened effects, cost
     effects; ``head`` is the derived predicate of a rule (None for actions). ``order`` ranks it;
     the binding domains, tests and join anchors are filled in before exploring, the
-    :class:`~.ground_bind.Join` at its first round."""
+    :class:`~tmpc.compiler.ground.bind.Join` at its first round."""
 
     decl: A.Action | A.Derived
     pre: LFormula

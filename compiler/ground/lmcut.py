@@ -211,7 +211,7 @@ class LMCut:
 
 
 def load_kernel() -> None:
-    """Load the compiled LM-cut now (compile it, the first time on a machine: ~6 s of CPU), so
+    """Load the compiled LM-cut now (compile it, the first time on a machine: seconds of CPU), so
     that the first state a search evaluates does not pay it; A* calls it before its clock."""
     from tmpc.compiler.ground import lmcut_kernel   # numba: only where A* runs
 

@@ -1,7 +1,7 @@
 """LM-cut compiled by numba: :mod:`tmpc.compiler.ground.lmcut`'s algorithm over integer arrays.
 
-The A* engine evaluates LM-cut on every state it generates, and the Python version spends
-~45 us per state on gripper and ~1 ms on depot, 83-97% of the search. This module runs the same
+The A* engine evaluates LM-cut on every state it generates, and in the Python version that is
+most of the search's time. This module runs the same
 steps (bucket h_max exploration, goal plateau, cut, incremental decrease, reuse of the parent's
 landmarks) in one compiled call per state. It computes the *same* values as the Python version:
 supporters are chosen in the same order (last precondition reached; the first highest one after
@@ -13,17 +13,18 @@ Python version for non-integral costs and for the SAT planner's bound, which nee
 
 The task is one ``int32`` array (:func:`pack`): a header of offsets, then the CSR lists of
 preconditions, effects, the operators each fact is a precondition of and the operators adding
-each fact. Landmarks travel packed in one ``int32`` array (A* keeps one per open state), ``[h, n, (cost, k, op_1..op_k) * n]``
+each fact. Landmarks travel packed in one ``int32`` array (A* keeps one per open state),
+``[h, n, (cost, k, op_1..op_k) * n]``
 (``h = -1`` for a relaxed dead end), so one call takes and returns one array each. Every
 per-call array is a view of one workspace allocated per task (:func:`workspace`) and never
 reassigned inside a loop, and the helpers are inlined: numba counts references of arrays that
-cross a call or are rebound in a loop, which made a first version 3x slower. A region a task does
+cross a call or are rebound in a loop, which costs time in the inner loops. A region a task does
 not bound (supporter lists, buckets, heap, output) that overflows makes the call answer ``[-2]``,
 and the caller retries with a workspace twice as large.
 
 numba caches the machine code under ``$NUMBA_CACHE_DIR`` (tmpc's cache folder by default:
-:mod:`tmpc.compiler.numbacfg`), so the compilation (6 s of CPU, measured) is paid once per
-machine; a process then loads it in ~0.6 s (numba's import included). This module is imported
+:mod:`tmpc.compiler.numbacfg`), so the compilation (seconds of CPU) is paid once per
+machine; a process then only loads it (numba's import included). This module is imported
 only where LM-cut runs in A*: ``tmpc --help`` and ``tmpc check`` do not load numba.
 """
 
@@ -41,7 +42,8 @@ N_FACTS, TRUE, GOAL, PRE, EFF, PRE_OF, EFF_OF, HEADER = 0, 1, 2, 3, 5, 7, 9, 11
 
 def load() -> None:
     """Compile the kernel (the first time on a machine) or load it from numba's cache, by one
-    call on a two-fact task with the argument types :meth:`LMCut.packed` uses."""
+    call on a two-fact task with the argument types
+    :meth:`tmpc.compiler.ground.lmcut.LMCut.packed` uses."""
     task = pack([(0,)], [(1,)], [[0], []], [[], [0]], 2, 0, 1)
     sizes = workspace_sizes(task, 1, 1)
     lmcut(task, np.zeros(1, np.int64), b"", np.zeros(2, np.int32), -1,
@@ -49,7 +51,7 @@ def load() -> None:
 
 
 def prepare(t, scale: int) -> tuple:
-    """What :meth:`LMCut.packed` passes for the relaxed task ``t`` (a
+    """What :meth:`tmpc.compiler.ground.lmcut.LMCut.packed` passes for the relaxed task ``t`` (a
     :class:`~tmpc.compiler.ground.lmcut.RelaxedTask` with integral costs): the kernel, the packed
     task, the costs, the relevant-fact mask, the state's byte length, the empty parent, the
     workspace and its sizes (``scale`` times the defaults)."""

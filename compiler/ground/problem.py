@@ -3,7 +3,7 @@
 The ground problem is the symbolic half of a TMP problem, shared by the SAT task planner, the FF
 heuristic and the TMP runtime. It is *symbolic only*: geometric atoms stay references
 ``(predicate, objects)`` that the runtime decides with the distance functions compiled once per
-lifted predicate (DESIGN §4, "compile lifted, bind late").
+lifted predicate (docs/design.md §4, "compile lifted, bind late").
 
 What is in it (details in the docstrings of the ``ground_*`` modules):
 
@@ -16,11 +16,11 @@ What is in it (details in the docstrings of the ``ground_*`` modules):
 * **Actions**: type-correct bindings whose precondition is not statically false and that are
   relaxed-reachable. Preconditions are normalized (quantifiers expanded over typed objects,
   ``imply`` rewritten, negation normal form, ``=`` and static atoms evaluated) and split into a
-  :class:`~.ground_formula.Condition`: ``pre_pos``/``pre_neg`` atom ids, ``pre_geometric`` literals,
-  and ``pre.extra``, a formula for disjunctions that remain (None for plain conjunctions).
-  Effects: ``adds``/``dels`` (add wins over delete), conditional effects evaluated in the
-  pre-state, kinematic link/unlink effects, and a cost.
-* **Axioms** for derived predicates, stratified (:mod:`.ground_derived`).
+  :class:`~tmpc.compiler.ground.formula.Condition`: ``pre_pos``/``pre_neg`` atom ids,
+  ``pre_geometric`` literals, and ``pre.extra``, a formula for disjunctions that remain (None for
+  plain conjunctions). Effects: ``adds``/``dels`` (add wins over delete), conditional effects
+  evaluated in the pre-state, kinematic link/unlink effects, and a cost.
+* **Axioms** for derived predicates, stratified (:mod:`tmpc.compiler.ground.derived`).
 
 **States** are ``int`` bitsets over atom ids (bit ``i`` set = atom ``i`` true); derived bits are
 part of the state and kept up to date by :meth:`GroundProblem.apply`. Geometric literals are

@@ -7,7 +7,7 @@ A kernel is ``kernel(q, obj_T, obj_parent, args) -> (truth, distance)``:
   holding frame; ``obj_parent`` (M,) int: -1 for a free object, else the holding frame's id;
 * ``args`` (k,) int: entity ids of the predicate's arguments (the grounding, bound late).
 
-Batch with ``jax.vmap`` over any of them. Distances follow ../shared/MATH.md §A: comparisons
+Batch with ``jax.vmap`` over any of them. Distances follow docs/math.md §A: comparisons
 ``a <= b -> max(a - b, 0)``, ``a = b -> |a - b|``; ``and`` -> sqrt of the sum of squares ("l2",
 the thesis) or the maximum ("max", tmit-star's outer combinator); ``or`` -> min; ``not`` is pushed
 to the comparisons. ``smooth > 0`` replaces max/min of the combinators by log-sum-exp with that
@@ -271,17 +271,17 @@ def _a(em, n, env, i=0):
     return em.val(n.args[i], env)
 
 
-def _quat_to_R(jnp, q):
+def _matrix_from_quat(jnp, q):
     # the code base's one quaternion -> matrix formula, in a jax.numpy array (same traced ops)
     return quat_matrix((q[0], q[1], q[2], q[3]), jnp)
 
 
 def _rot_of(em, n, env):
     v = _a(em, n, env)
-    return _quat_to_R(em.jnp, v) if n.args[0].type == ir.QUAT else v[0]
+    return _matrix_from_quat(em.jnp, v) if n.args[0].type == ir.QUAT else v[0]
 
 
-def _R_to_quat(jnp, R):
+def _quat_from_matrix(jnp, R):
     """Rotation matrix -> unit quaternion (x, y, z, w), w >= 0 (NaN-free gradients)."""
     tr = R[0, 0] + R[1, 1] + R[2, 2]
     w = 0.5 * _safe_sqrt(jnp, 1.0 + tr)
@@ -355,9 +355,9 @@ _VALUE_OPS = {
     "component": lambda em, n, e: _a(em, n, e)[int(n.args[1].value)],
     "pose": lambda em, n, e: (em.R[_a(em, n, e)], em.p[_a(em, n, e)]),
     "position": lambda em, n, e: _a(em, n, e)[1],
-    "orientation": lambda em, n, e: _R_to_quat(em.jnp, _a(em, n, e)[0]),
+    "orientation": lambda em, n, e: _quat_from_matrix(em.jnp, _a(em, n, e)[0]),
     "rotation_axis": lambda em, n, e: _rot_of(em, n, e)[:, int(n.args[1].value)],
-    "rotate": lambda em, n, e: _quat_to_R(em.jnp, _a(em, n, e, 0)) @ _a(em, n, e, 1),
+    "rotate": lambda em, n, e: _matrix_from_quat(em.jnp, _a(em, n, e, 0)) @ _a(em, n, e, 1),
     "relative": lambda em, n, e: _a(em, n, e, 1)[0].T @ (_a(em, n, e, 0)[1] - _a(em, n, e, 1)[1]),
     "rpy": lambda em, n, e: _rpy(em.jnp, _rot_of(em, n, e)),
     "extent": lambda em, n, e: em.jnp.asarray(em.world.extents)[_a(em, n, e)],
@@ -383,7 +383,7 @@ def _lua_distance(em, n, env):
     if call is None:
         raise KernelError(f"no Lua function registered for {ir.show(n)}")
     ids = [em.val(a, env) for a in n.args[1:]]
-    poses = jnp.stack([jnp.concatenate([em.p[e], _R_to_quat(jnp, em.R[e])]) for e in ids])
+    poses = jnp.stack([jnp.concatenate([em.p[e], _quat_from_matrix(jnp, em.R[e])]) for e in ids])
     return call(poses, jnp.stack([jnp.asarray(e, dtype=jnp.int64) for e in ids]))
 
 

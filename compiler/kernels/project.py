@@ -9,7 +9,7 @@ not pinned at a bound, scaled by ``step`` and clipped into the joint bounds (a c
 around, a continuous joint or the base's yaw, is never pinned: it is taken modulo its period
 instead): for a distance built from comparisons this is a Gauss-Newton
 step on the violated constraints, which converges in a few iterations where a plain gradient
-step needs a hundred (measured in ``tests/bench``). A start is *converged* when its truth test
+step needs many more (``tests/bench`` compares them). A start is *converged* when its truth test
 holds; callers add their own acceptance (collision-free) and report why the rest were rejected.
 """
 
@@ -46,11 +46,8 @@ def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12, wr
     caller (the planner's 15 iterations, ``tmpc sample --iterations``). ``wraps`` (n,) bool:
     the coordinates whose [lower, upper] is one period (continuous joints, the base's yaw).
 
-    Clipping those at their bounds, as before 2026-12-04, stalled the Newton steps at +-pi:
-    one batch of 16 putdown starts of the optimal planner on tmit-star's clutter pb_1 ended
-    with the PR2's forearm roll pinned there in 7; 4 held after 30 steps and 13 after 200,
-    wrapped 5 and 15 (the rest converge slowly, not stuck). The planners' times to a first
-    solution did not change beyond the noise."""
+    Those are wrapped into their period, not clipped: clipping pins a Newton step at +-pi (a
+    continuous joint such as the PR2's forearm roll stalls there instead of going round)."""
     jax = configured()
     jnp = jax.numpy
     lo, hi = jnp.asarray(lower), jnp.asarray(upper)
@@ -69,8 +66,7 @@ def projector_fn(kernel, lower, upper, step: float = 1.0, eps: float = 1e-12, wr
             i, q, _ = carry
             d, g = value_and_grad(q, T, par, args)
             # Active set: a coordinate at a bound whose step would leave the box is frozen, so
-            # the step is spent on the coordinates that can move (clipping alone stalls; with
-            # it PR2 `at` converges 94% instead of 62% in 10 iterations, measured).
+            # the step is spent on the coordinates that can move (clipping alone stalls).
             stuck = ~wrap & (((q <= lo + 1e-9) & (g > 0)) | ((q >= hi - 1e-9) & (g < 0)))
             g = jnp.where(stuck, 0.0, g)
             gg = (g * g).sum()

@@ -3,7 +3,7 @@ landmark bound, mutexes) and the static checks reported as diagnostics.
 """
 
 from tmpc.compiler.smt.bound import lmcut as lmcut
-from tmpc.compiler.smt.checks import _note as _note
+from tmpc.compiler.smt.checks import not_checked_note as not_checked_note
 from tmpc.compiler.smt.checks import static_checks as static_checks
 from tmpc.compiler.smt.checks import unreachable_goal_names as unreachable_goal_names
 from tmpc.compiler.smt.encode import Changers as Changers

@@ -1,7 +1,7 @@
-"""Analyses of a ground problem that the SAT encoding (:mod:`.smt`) builds on: which atoms are
-relevant (read by something), the delete-relaxed planning graph levels (the first step each action
-can be, the goal's level, every reachable atom), and strongly connected components of the
-derived-atom dependency graph."""
+"""Analyses of a ground problem that the SAT encoding (:mod:`tmpc.compiler.smt.encode`) builds on:
+which atoms are relevant (read by something), the delete-relaxed planning graph levels (the first
+step each action can be, the goal's level, every reachable atom), and strongly connected components
+of the derived-atom dependency graph."""
 
 from __future__ import annotations
 

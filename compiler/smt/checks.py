@@ -44,7 +44,8 @@ def static_checks(program: CheckedProgram, budget_s: float = 2.0) -> list[Diagno
     ctx = None
     for act in program.domain.actions:
         if time.perf_counter() - t0 > budget_s:
-            out.append(_note("the contradiction check of action preconditions", act.name.span))
+            out.append(not_checked_note("the contradiction check of action preconditions",
+                                        act.name.span))
             return out
         if act.precondition is None:
             continue
@@ -61,11 +62,12 @@ def static_checks(program: CheckedProgram, budget_s: float = 2.0) -> list[Diagno
     try:
         gp = ground(program, max_bindings=CHECK_MAX_BINDINGS)
     except GroundingError:
-        out.append(_note("grounding-based checks (the problem is too large to ground quickly)",
-                         program.problem.name.span))
+        out.append(not_checked_note(
+            "grounding-based checks (the problem is too large to ground quickly)",
+            program.problem.name.span))
         return out
     if time.perf_counter() - t0 > budget_s:
-        out.append(_note("grounding-based checks", program.problem.name.span))
+        out.append(not_checked_note("grounding-based checks", program.problem.name.span))
         return out
     out += _never_applicable(program, gp, contradictory)
     if not gp.goal_relaxed_reachable:
@@ -73,7 +75,8 @@ def static_checks(program: CheckedProgram, budget_s: float = 2.0) -> list[Diagno
     return out
 
 
-def _note(what: str, span) -> Diagnostic:
+def not_checked_note(what: str, span) -> Diagnostic:
+    """The W613 note: a check (``what``) did not run within its time budget."""
     return Diagnostic("W613", Severity.NOTE, f"unknown: {what} did not run within the time "
                       "budget", span)
 
@@ -220,4 +223,4 @@ def _to_z3(z3, ctx, f, env: dict[str, str], positive: bool, counter):
 
 
 __all__ = ["static_checks", "unreachable_goal_atoms", "unreachable_goal_names",
-           "CHECK_MAX_BINDINGS"]
+           "CHECK_MAX_BINDINGS", "not_checked_note"]

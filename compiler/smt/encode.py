@@ -1,11 +1,11 @@
-"""The step encoding of a :class:`~.ground.GroundProblem` for incremental SAT planning.
+"""The step encoding of a :class:`~tmpc.compiler.ground.GroundProblem` for incremental SAT planning.
 
-Thesis Alg. 3 (MATH.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean state
-variables and steps ``1..T`` of Boolean action variables, one action per step. The encoding is a
-set of **templates**, SMT-LIB2 text with placeholders, instantiated once per layer or step by
+Thesis Alg. 3 (docs/math.md §B): a plan of length ``T`` is a model of layers ``0..T`` of Boolean
+state variables and steps ``1..T`` of Boolean action variables, one action per step. The encoding
+is a set of **templates**, SMT-LIB2 text with placeholders, instantiated once per layer or step by
 string replacement (``@K`` = this layer/step, ``@P`` = the previous layer). Building clauses as
-text and letting Z3 parse them is ~10x faster than z3's Python operators (DESIGN §6.3); the same
-text is what :func:`smtlib_templates` serializes for the artifact.
+text and letting Z3 parse them is ~10x faster than z3's Python operators (docs/design.md §6.3); the
+same text is what :func:`smtlib_templates` serializes for the artifact.
 
 Variables (``k`` a layer or step number):
 
@@ -45,7 +45,7 @@ Size: ``|S|`` copies of the component's bodies per layer (transitive closure ove
 being obviously correct and propagation-friendly; rank encodings would be ``O(log |S|)`` per body
 literal if large components ever matter. Geometric literals inside axiom bodies and inside the
 conditions of conditional effects count as satisfied (the discrete view of
-:meth:`~.ground.GroundProblem.apply` without an oracle).
+:meth:`~tmpc.compiler.ground.GroundProblem.apply` without an oracle).
 
 **Geometric literals** (thesis §4.3.5). In the discrete view (``geometric=False``) every
 geometric literal is satisfied. In geometric mode each geometric literal ``m`` that a precondition
@@ -280,8 +280,8 @@ class Encoding:
     #: the first horizon at which the goal is relaxed-reachable (an admissible lower bound);
     #: None if never
     goal_level: int | None
-    #: disjoint action landmarks (ground action ids; :mod:`.smt_bound`), with step indicators
-    #: ``l<i>@k`` in the step template; empty if none were given
+    #: disjoint action landmarks (ground action ids; :mod:`tmpc.compiler.smt.bound`), with step
+    #: indicators ``l<i>@k`` in the step template; empty if none were given
     landmarks: tuple[frozenset[int], ...] = ()
     #: (assertions, variables) per template
     sizes: dict[str, tuple[int, int]] = field(default_factory=dict)
@@ -359,7 +359,7 @@ def encode(problem: GroundProblem, geometric: bool = False, amo: str = "pb",
     ``changers``: which actions may change a geometric literal (default: every action with a
     kinematic effect); ``landmarks``: disjoint action landmarks for counting constraints
     (:meth:`Encoding.landmark_text`); ``mutexes``: atom pairs no reachable state holds, added to
-    every layer (:mod:`.smt_mutex`)."""
+    every layer (:mod:`tmpc.compiler.smt.mutex`)."""
     landmarks = tuple(landmarks)
     if amo not in AMO:
         raise ValueError(f"amo must be one of {AMO}")

@@ -2,9 +2,9 @@
 SMT checks) that speaks JSON lines on its stdin/stdout.
 
 The server never imports JAX, Z3 or lupa for this work: it is handed the worker's command line
-by the composition root (``tmpc lsp`` passes ``python -m tmpc.runtime.editor``). One request runs
-at a time. A request past its time budget, or cancelled by the editor, kills the worker (the next
-request starts a fresh one); a worker that dies is reported as :class:`WorkerError`, and the
+by the composition root (``tmpc lsp`` passes ``python -m tmpc.runtime.lsp_worker``). One request
+runs at a time. A request past its time budget, or cancelled by the editor, kills the worker (the
+next request starts a fresh one); a worker that dies is reported as :class:`WorkerError`, and the
 server lives on. The worker keeps compiled worlds in memory, and the artifact cache on disk, so a
 second request on unchanged files is fast.
 """

@@ -32,10 +32,10 @@ from tmpc.lang.world.files import search_dirs as search_dirs
 from tmpc.lang.world.files import tried_text as tried_text
 from tmpc.lang.world.files import urdf_names as urdf_names
 from tmpc.lang.world.native import NATIVE_SCENE_FORMAT as NATIVE_SCENE_FORMAT
-from tmpc.lang.world.native import _load_native
+from tmpc.lang.world.native import load_native_scene
 from tmpc.lang.world.pairs import load_allowed_pairs as load_allowed_pairs
 from tmpc.lang.world.planet import TORSO_JOINT as TORSO_JOINT
-from tmpc.lang.world.planet import _load_planet
+from tmpc.lang.world.planet import load_planet_scene
 from tmpc.lang.world.reader import ROTATION_TOLERANCE as ROTATION_TOLERANCE
 from tmpc.lang.world.reader import JsonReader as JsonReader
 from tmpc.lang.world.reader import LoadReport as LoadReport
@@ -52,7 +52,7 @@ from tmpc.lang.world.rotations import matrix_from_quat as matrix_from_quat
 from tmpc.lang.world.rotations import orthonormality_error as orthonormality_error
 from tmpc.lang.world.rotations import quat_from_matrix as quat_from_matrix
 from tmpc.lang.world.scene import Scene
-from tmpc.lang.world.tmit import _load_tmit
+from tmpc.lang.world.tmit import load_tmit_scene
 from tmpc.lang.world.xmldoc import XmlNode as XmlNode
 from tmpc.lang.world.xmldoc import parse_xml as parse_xml
 
@@ -67,9 +67,9 @@ SceneLoader = Callable[..., Scene]
 
 #: format name -> loader(source, options, report, parsed=None). Names match ``Scene.format``.
 SCENE_LOADERS: dict[str, SceneLoader] = {
-    "tmpc-json": _load_native,
-    "tmit-star-json": _load_tmit,
-    "planet-xml": _load_planet,
+    "tmpc-json": load_native_scene,
+    "tmit-star-json": load_tmit_scene,
+    "planet-xml": load_planet_scene,
 }
 
 

@@ -30,8 +30,8 @@ from tmpc.lang.world.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shap
 NATIVE_SCENE_FORMAT = "tmpc-scene/1"
 
 
-def _load_native(source: SourceFile, opts: SceneOptions, report: LoadReport,
-                 doc: JsonDoc | None = None) -> Scene:
+def load_native_scene(source: SourceFile, opts: SceneOptions, report: LoadReport,
+                      doc: JsonDoc | None = None) -> Scene:
     return read_json_scene(source, doc, report, False, lambda r: _native_scene(r, opts))
 
 

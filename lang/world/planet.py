@@ -120,8 +120,8 @@ class _XmlReader(Reader):
                           f"<{c.tag}> (ignored)", did_you_mean(c.tag, known))
 
 
-def _load_planet(source: SourceFile, opts: SceneOptions, report: LoadReport,
-                 root: XmlNode | None = None) -> Scene:
+def load_planet_scene(source: SourceFile, opts: SceneOptions, report: LoadReport,
+                      root: XmlNode | None = None) -> Scene:
     root = root or parse_xml(source, report)
     r = _XmlReader(source, report, legacy=True)
     scene = None

@@ -19,8 +19,8 @@ from tmpc.lang.world.scene import Pose, RobotSpec, Scene, SceneObject, Shape
 _TMIT_IGNORED = ("color", "specular", "hide_name")
 
 
-def _load_tmit(source: SourceFile, opts: SceneOptions, report: LoadReport,
-               doc: JsonDoc | None = None) -> Scene:
+def load_tmit_scene(source: SourceFile, opts: SceneOptions, report: LoadReport,
+                    doc: JsonDoc | None = None) -> Scene:
     return read_json_scene(source, doc, report, True, lambda r: _tmit_scene(r, opts))
 
 

@@ -1,4 +1,4 @@
-"""Exit codes of every command, in one place (DESIGN §8)."""
+"""Exit codes of every command, in one place (docs/design.md §8)."""
 
 EXIT_OK = 0
 #: a user error, reported with diagnostics; also: a plan that is not valid

@@ -2,7 +2,7 @@
 
 Each command is a small function registered in :data:`COMMANDS`; argparse's choices come from
 that registry. Commands import what they need lazily so `tmpc check` never loads JAX, Z3, OMPL or
-lupa. Exit codes (DESIGN §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
+lupa. Exit codes (docs/design.md §8): 0 success, 1 user error with diagnostics, 2 usage error, 3 no
 plan/sample within limits, 70 internal error (a bug: rerun with --debug and report it).
 """
 
@@ -420,7 +420,7 @@ PROBABILITY = _number(float, 0, True, 1)
 def run_and_exit(argv: list[str] | None = None):
     """The console entry (``tmpc``, ``python -m tmpc.runtime.cli``): :func:`main`, then exit.
     After a command that imported JAX, the interpreter's teardown (XLA's clients, executables
-    and thread pools) costs 0.3-0.5 s of a process that is done, so the process ends at once,
+    and thread pools) costs noticeable time in a process that is done, so the process ends at once,
     its output flushed (every file tmpc writes is complete before then: atomic writes). Under
     a tracer or profiler (coverage, cProfile) the usual exit runs."""
     install_interrupts()

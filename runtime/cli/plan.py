@@ -186,12 +186,12 @@ def plan_text(actions, uses_costs: bool, optimal: str = "length") -> str:
 
 def write_atomically(path: str, text: str) -> None:
     """lang.fileio's atomic write (temporary file and rename, usual permissions); an unwritable
-    place is E614."""
+    place is E828, as for every plan file."""
     try:
         atomic_write_text(path, text)
     except OSError as exc:
-        raise InputError(error("E614", f"cannot write {path}: {exc.strerror or exc}",
-                               None)) from None
+        raise InputError(error("E828", f"cannot write {path}: {exc.strerror or exc}", None,
+                               "check that the folder exists and is writable")) from None
 
 
 def _print_engines(engine: str, result) -> None:

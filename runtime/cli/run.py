@@ -29,7 +29,7 @@ def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
     _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815"),
                     (None if args.output else _configured_output(args.input), "E828")])
-    phases = None if args.quiet else _SetupProgress(sys.stderr, sys.stderr.isatty())
+    phases = None if args.quiet else SetupProgress(sys.stderr, sys.stderr.isatty())
     world, opened = open_input(args.input, on_compile=None if phases is None else phases.start,
                                progress=phases)
     # the command line wins; else the configuration's time limit and output (planet's TOML
@@ -155,8 +155,8 @@ def _report(doc, result, setup: float) -> None:
       + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()) + "\n")
 
 
-class _SetupProgress:
-    """Setup's phases on stderr while a first run compiles (20-45 s of silence otherwise): a live
+class SetupProgress:
+    """Setup's phases on stderr while a first run compiles (a long silence otherwise): a live
     line on a terminal, else a plain line per phase and at most one every 5 s within one. Silent
     until the compile starts, so a run from the artifact cache prints nothing more."""
 

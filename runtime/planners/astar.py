@@ -162,7 +162,7 @@ class AStarPlanner:
                 plan = _path(sid, parent, via)
                 return SearchResult(SOLVED, plan, gs, st)
             st.expanded += 1
-            if time.perf_counter() > deadline:     # ~50 ns: cheap next to one LM-cut
+            if time.perf_counter() > deadline:     # cheap next to one LM-cut
                 st.seconds = time.perf_counter() - t0
                 return SearchResult(TIMEOUT, None, INF, st)
             for a, t, c in succ(state):

@@ -3,10 +3,11 @@
 :data:`ENGINES` maps a name to an :class:`EngineSpec`; `tmpc plan --engine`'s choices and the
 engine test read it.
 
-* ``sat``: the incremental SAT planner (:mod:`.taskplan`): length-optimal; action costs are not
-  minimized. Honours ``--min-steps``/``--max-steps``.
-* ``astar``: A* with LM-cut (:mod:`.astar`): cost-optimal (length-optimal without action costs).
-  Ignores the step limits; an exhausted search proves that no plan exists at all.
+* ``sat``: the incremental SAT planner (:mod:`tmpc.runtime.planners.taskplan`): length-optimal;
+  action costs are not minimized. Honours ``--min-steps``/``--max-steps``.
+* ``astar``: A* with LM-cut (:mod:`tmpc.runtime.planners.astar`): cost-optimal (length-optimal
+  without action costs). Ignores the step limits; an exhausted search proves that no plan exists at
+  all.
 * ``auto``: both at once in two forked processes within the time limit; the first *decisive*
   answer wins and the other process is stopped. Decisive: a plan proven optimal for the task
   (either engine without action costs; only A*'s with them), or A*'s proof that no plan exists.
@@ -44,9 +45,9 @@ class Limits:
 class EngineResult:
     """What one engine found. ``optimal``: what the plan is proven optimal in (``length`` or
     ``cost``; ``""`` for a SAT plan of at least ``--min-steps`` steps that may not be shortest).
-    ``detail``: the SAT planner's :class:`~.taskplan.PlanResult` (actions removed) and setup
-    figures, or A*'s :class:`~.astar.SearchStats`. ``others``: the results of the portfolio's
-    other engines (``auto``)."""
+    ``detail``: the SAT planner's :class:`~tmpc.runtime.planners.taskplan.PlanResult` (actions
+    removed) and setup figures, or A*'s :class:`~tmpc.runtime.planners.astar.SearchStats`.
+    ``others``: the results of the portfolio's other engines (``auto``)."""
 
     engine: str
     status: str
@@ -93,8 +94,8 @@ def run_sat(problem: GroundProblem, limits: Limits) -> EngineResult:
 def run_astar(problem: GroundProblem, limits: Limits) -> EngineResult:
     from tmpc.runtime.planners.astar import AStarPlanner
     t0 = time.perf_counter()
-    # the limit is the search's: the planner's setup loads the compiled LM-cut, a compilation
-    # of ~6 s of CPU the first time on a machine
+    # the limit is the search's: the planner's setup loads the compiled LM-cut, compiled (seconds
+    # of CPU) the first time on a machine
     r = AStarPlanner(problem).plan(limits.time_limit)
     ids = [a.id for a in r.actions] if r.actions is not None else None
     return EngineResult("astar", r.status, ids, "cost" if problem.uses_costs else "length",

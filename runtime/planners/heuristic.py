@@ -1,7 +1,7 @@
 """The FF heuristic behind the thesis's minimal heuristic interface (Def. 4).
 
 ``suggest(symbolic_state) -> [(action, priority)]`` is all the chapter-2 sampler (Algorithm 1) asks
-of a heuristic. :class:`FFHeuristic` answers it with planet's priorities (``MATH.md`` §B) computed
+of a heuristic. :class:`FFHeuristic` answers it with planet's priorities (docs/math.md §B) computed
 from FF's relaxed planning graph; :class:`ScaledPriorities` is the sampler's table of entries
 with the Fail/Success counts that turn those priorities into its weights
 ``P(a) / (1 + fail + gamma * success)`` (the unified planner draws from it).
@@ -63,8 +63,8 @@ SUCCESS_SCALE = 100.0
 #: One suggestion: an action (None: "the goal is reached here") and its priority (> 0).
 Suggestion = tuple["GroundAction | None", float]
 
-_BIG = 1 << 30              # level of an atom not reached (yet)
-_AXIOM, _GOAL = -1, -2     # ``RelaxedTask.act`` of units that are not actions
+UNREACHED = 1 << 30              # level of an atom not reached (yet)
+AXIOM_UNIT, GOAL_UNIT = -1, -2     # ``RelaxedTask.act`` of units that are not actions
 
 
 class Heuristic(Protocol):
@@ -129,7 +129,7 @@ class _LRU:
             self.data.popitem(last=False)
 
 
-class _Analysis:
+class Analysis:
     """What one exploration of a state yields: h (inf: dead end), h_max, the scheduled
     ``(action id, layer)`` pairs, the subgoals per level and ``G_1`` as a mask."""
 
@@ -148,8 +148,9 @@ class RelaxedTask:
 
     Per unit ``u``: ``pre[u]`` the positive atoms it needs (a tuple; for generic units the atoms
     it watches), ``adds[u]``, ``cost[u]`` (1 for actions and conditional effects, 0 for axioms
-    and the goal), ``act[u]`` (an action id, ``_AXIOM``, or ``_GOAL`` for the goal's disjuncts:
-    the units from ``goal0`` on) and ``formula[u]`` for generic units (None otherwise).
+    and the goal), ``act[u]`` (an action id, ``AXIOM_UNIT``, or ``GOAL_UNIT`` for the goal's
+    disjuncts: the units from ``goal0`` on) and ``formula[u]`` for generic units (None
+    otherwise).
     """
 
     def __init__(self, problem: GroundProblem, dnf_limit: int = 64):
@@ -165,9 +166,9 @@ class RelaxedTask:
             for ce in a.conditional:
                 self._add(conj((a.pre.formula, ce.condition)), ce.adds, 1, a.id)
         for ax in problem.axioms:
-            self._add(ax.body, (ax.head,), 0, _AXIOM)
+            self._add(ax.body, (ax.head,), 0, AXIOM_UNIT)
         self.goal0 = len(self.pre)      # units from here on are the goal's disjuncts
-        self._add(problem.goal.formula, (), 0, _GOAL)
+        self._add(problem.goal.formula, (), 0, GOAL_UNIT)
         self.watch1: list[list[int]] = [[] for _ in range(self.n)]     # units needing one atom
         self.watch: list[list[int]] = [[] for _ in range(self.n)]      # units needing several
         self.gwatch: list[list[int]] = [[] for _ in range(self.n)]
@@ -214,29 +215,29 @@ class RelaxedTask:
         self.formula.append(formula)
 
 
-def _rlevel(f: GFormula, level: Sequence[int]) -> int:
-    """Relaxed level of ``f``: the layer from which it is relaxed-true (``_BIG``: never)."""
+def relaxed_level(f: GFormula, level: Sequence[int]) -> int:
+    """Relaxed level of ``f``: the layer from which it is relaxed-true (``UNREACHED``: never)."""
     t = type(f)
     if t is GAtom:
         return level[f.id]
     if t is GAnd:
-        return max((_rlevel(p, level) for p in f.parts), default=0)
+        return max((relaxed_level(p, level) for p in f.parts), default=0)
     if t is GOr:
-        return min((_rlevel(p, level) for p in f.parts), default=_BIG)
-    return _BIG if t is GFalse else 0
+        return min((relaxed_level(p, level) for p in f.parts), default=UNREACHED)
+    return UNREACHED if t is GFalse else 0
 
 
-def _witness(f: GFormula, level: Sequence[int], out: list[int]) -> None:
-    """Append to ``out`` positive atoms that make ``f`` relaxed-true at its :func:`_rlevel`
+def relaxed_witness(f: GFormula, level: Sequence[int], out: list[int]) -> None:
+    """Append to ``out`` positive atoms that make ``f`` relaxed-true at its :func:`relaxed_level`
     (the earliest disjunct of every ``or``)."""
     t = type(f)
     if t is GAtom:
         out.append(f.id)
     elif t is GAnd:
         for p in f.parts:
-            _witness(p, level, out)
+            relaxed_witness(p, level, out)
     elif t is GOr:
-        _witness(min(f.parts, key=lambda p: _rlevel(p, level)), level, out)
+        relaxed_witness(min(f.parts, key=lambda p: relaxed_level(p, level)), level, out)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -374,24 +375,24 @@ class FFHeuristic:
         return [(a, _priority(h2) if is_h or h2 == 0 else NON_HELPFUL_FACTOR * ref)
                 for a, h2, is_h in rows]
 
-    def _analysis(self, state: int) -> _Analysis:
+    def _analysis(self, state: int) -> Analysis:
         an = self._analyses.get(state)
         if an is not None:
             self.stats.cache_hits += 1
             return an
         self.stats.explorations += 1
         if self.problem.goal_satisfied(state):
-            an = _Analysis(0.0, 0.0, (), (frozenset(),), 0)
+            an = Analysis(0.0, 0.0, (), (frozenset(),), 0)
         else:
             an = self._explore(state)
         self._analyses.put(state, an)
         return an
 
-    def _explore(self, state: int) -> _Analysis:
+    def _explore(self, state: int) -> Analysis:
         """Counter-based layered propagation from ``state``, then FF extraction."""
         t = self.task
         watch1, watch, gwatch, uadds, ucost = t.watch1, t.watch, t.gwatch, t.adds, t.cost
-        level = [_BIG] * t.n
+        level = [UNREACHED] * t.n
         sup = [-1] * t.n
         missing = t.missing0[:]
         witness: dict[int, list[int]] = {}     # generic units: the atoms they fired on
@@ -399,10 +400,10 @@ class FFHeuristic:
         for p in layer:
             level[p] = 0
         nxt: list[int] = []
-        for u in t.free + [u for u in t.generic if _rlevel(t.formula[u], level) == 0]:
+        for u in t.free + [u for u in t.generic if relaxed_level(t.formula[u], level) == 0]:
             if t.formula[u] is not None:
                 witness[u] = []
-                _witness(t.formula[u], level, witness[u])
+                relaxed_witness(t.formula[u], level, witness[u])
             if u >= t.goal0:
                 return self._extract(state, level, sup, u, 0, witness)
             self._fire(u, 0, level, sup, layer, nxt)
@@ -413,10 +414,8 @@ class FFHeuristic:
                 if level[p] != L:
                     continue
                 # The two counter loops below inline :meth:`_fire` on purpose (the same body
-                # twice): calling ``self._fire`` here made h() slower by 7-24% (clutter 5, 14,
-                # 14 + 14 red, blocksworld p01, towers 6 and 10: -23%, -22%, -19%, -7%, -13%,
-                # -24%; median of 7 paired runs of tests/bench/test_bench_heuristic.py's cases);
-                # only the tiny clutter 1 did not slow down. Keep both identical to _fire.
+                # twice): a method call per unit is a large share of h() on every benchmark
+                # problem (tests/bench/test_bench_heuristic.py). Keep both identical to _fire.
                 for u in watch1[p]:         # units needing p alone fire now
                     if u >= goal0:
                         return self._extract(state, level, sup, u, L, witness)
@@ -447,19 +446,19 @@ class FFHeuristic:
                                 else:
                                     layer.append(q)
                 for u in gwatch[p]:
-                    if u in witness or _rlevel(t.formula[u], level) > L:
+                    if u in witness or relaxed_level(t.formula[u], level) > L:
                         continue
                     witness[u] = []
-                    _witness(t.formula[u], level, witness[u])
+                    relaxed_witness(t.formula[u], level, witness[u])
                     if u >= goal0:
                         return self._extract(state, level, sup, u, L, witness)
                     self._fire(u, L, level, sup, layer, nxt)
             layer, nxt = nxt, []
             L += 1
-        return _Analysis(math.inf, math.inf)
+        return Analysis(math.inf, math.inf)
 
     def _fire(self, u: int, L: int, level, sup, layer, nxt) -> None:
-        # inlined twice in _explore's counter loops (speed, measured there)
+        # inlined twice in _explore's counter loops (a call per unit costs too much there)
         c = self.task.cost[u]
         lv = L + c
         for q in self.task.adds[u]:
@@ -469,7 +468,7 @@ class FFHeuristic:
                 (nxt if c else layer).append(q)
 
     def _extract(self, state: int, level, sup, goal_unit: int, depth: int,
-                 witness: dict[int, list[int]]) -> _Analysis:
+                 witness: dict[int, list[int]]) -> Analysis:
         """FF's backward extraction from the goal unit (reached in layer ``depth``)."""
         t = self.task
         upre, uadds, uact = t.pre, t.adds, t.act
@@ -505,7 +504,7 @@ class FFHeuristic:
         g1 = sum(1 << p for p in agenda[1]) if depth >= 1 else 0
         # a state that is not a goal state needs at least one action, even when the relaxation
         # is satisfied at once (a negated goal atom still true, say)
-        return _Analysis(float(max(len(pairs), 1)), float(max(depth, 1)), frozenset(pairs),
+        return Analysis(float(max(len(pairs), 1)), float(max(depth, 1)), frozenset(pairs),
                          subgoals, g1)
 
 
@@ -521,7 +520,7 @@ def _priority(h2: float) -> float:
 class ScaledPriorities:
     """Algorithm 1's table: one entry per (symbolic state, action) suggestion, with its priority,
     its Fail/Success counts and its scaled priority
-    ``P(a) = priority(a) / (1 + fail(a) + gamma * success(a))`` (``MATH.md`` §B; gamma >= 1).
+    ``P(a) = priority(a) / (1 + fail(a) + gamma * success(a))`` (docs/math.md §B; gamma >= 1).
     The unified planner samples from this table; there is no other implementation.
 
     Entries are numbered in the order they are added (:meth:`add`, or :meth:`expand`, which adds

@@ -18,7 +18,7 @@ constraints lose their strength when guarded: clutter with 10 sticks takes 6 s t
 against 0.2-0.8 s in a scope (bench: ``tests/bench/test_bench_taskplan.py``). Constraints are only
 ever added outside the scope, so a horizon proven unsatisfiable stays so: later calls start past it.
 
-For the TMP planners (MATH.md §B):
+For the TMP planners (docs/math.md §B):
 
 * :meth:`TaskPlanner.next_plan` — the shortest plan that satisfies everything added so far;
 * :meth:`TaskPlanner.exclude_prefix` — ``not (a^1 and ... and a^n)``: no later plan starts with
@@ -115,7 +115,7 @@ class TaskPlanner:
         self.template_seconds = time.perf_counter() - t0
         # a context of its own: Z3's models depend on the history of the context they are made
         # in (fresh names, term ids), so in the shared global one the second planner of a
-        # process found other plans than the first (measured); this way a plan depends only on
+        # process finds other plans than the first; this way a plan depends only on
         # the problem and what was added
         self.ctx = z3.Context()
         self.solver = z3.SolverFor("QF_FD", ctx=self.ctx)
@@ -185,7 +185,7 @@ class TaskPlanner:
 
     # ---- constraints from the TMP planners ----------------------------------------------------
     def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
-        """No later plan starts with ``prefix`` (MATH.md §B plan exclusion). The empty prefix
+        """No later plan starts with ``prefix`` (docs/math.md §B plan exclusion). The empty prefix
         excludes every plan."""
         prefix = list(prefix)
         self._add(len(prefix), self.encoding.prefix_clause(prefix))

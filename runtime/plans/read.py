@@ -21,7 +21,7 @@ import numpy as np
 
 # (translation, quaternion xyzw) -> 4x4: numpy's one copy, re-exported by tmpc.runtime.plans
 from tmpc.compiler.cache import robot_tree
-from tmpc.compiler.rotations import transform as pose_matrix
+from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.jsonpos import parse_json
 from tmpc.lang.source import SourceFile, Span

@@ -61,8 +61,9 @@ def truth_text(manifest: Path) -> str:
 def run_experiment(exp: Experiment, rw, store, truth, make_source, cfg: LoopConfig, trials: int,
                    seed: int, on_event=None) -> tuple[dict, list]:
     """Run (or resume) ``trials`` trials; returns report.json's content and each trial's
-    :class:`LoopResult`. ``cfg``'s sampling and unexpected-observation limit, when set, replace
-    the experiment's (to study them); its other stopping rule is the experiment's."""
+    :class:`tmpc.runtime.repair.loop.LoopResult`. ``cfg``'s sampling and unexpected-observation
+    limit, when set, replace the experiment's (to study them); its other stopping rule is the
+    experiment's."""
     cfg = replace(cfg, sampling=cfg.sampling or exp.sampling,
                   stop_unexpected=cfg.stop_unexpected or exp.stop_unexpected,
                   stop_expected_run=exp.stop_expected_run)

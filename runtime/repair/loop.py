@@ -3,9 +3,9 @@
 Each turn draws a state (naively, or by active counterexample sampling from the difference of
 the last two formulas, §3.5.1), executes the action with the controller, stores the observation
 (committed before use), and compares the outcome with the model. An unexpected outcome starts a
-repair: the constraint hypothesis (the edit search of :mod:`.search` on the unexpected
-observations and as many expected ones, the nearest to the boundary, with a held-back set for
-ties) and the effect hypothesis (the action applies as modelled but its effects are what was
+repair: the constraint hypothesis (the edit search of :mod:`tmpc.runtime.repair.search` on the
+unexpected observations and as many expected ones, the nearest to the boundary, with a held-back
+set for ties) and the effect hypothesis (the action applies as modelled but its effects are what was
 observed) are scored in the same error, and the lower one is kept; the constraint wins ties.
 Every random draw of turn ``k`` comes from ``default_rng([seed, trial, k])``, so a resumed loop
 draws what an uninterrupted one would have.
@@ -42,7 +42,7 @@ class LoopConfig:
     #: under active sampling, the probability of a naive draw anyway (§3.5.1)
     naive_probability: float = 0.2
     #: a counterexample must be this far outside the other formula (m / rad), against
-    #: tolerance flip-flops at the boundary (MATH.md §C.3c)
+    #: tolerance flip-flops at the boundary (docs/math.md §C.3c)
     margin: float = 1e-3
     #: active sampling also probes the current boundary: states inside the formula with every
     #: parameter grown by this fraction but outside it, and inside it but outside it shrunk
@@ -73,7 +73,7 @@ class LoopResult:
         return sum(not o.expected for o in self.observations)
 
 
-def _feats_of_coords(rw, coords: list[dict]) -> Features:
+def feats_of_coords(rw, coords: list[dict]) -> Features:
     """Features straight from drawn coordinates (equal to the DSL helpers' values at the state
     built from them; tests/runtime/test_repair.py checks that)."""
     t, truth = {}, {}
@@ -129,7 +129,7 @@ class Sampled:
             for j in rng.permutation(len(pairs)):
                 inside, other = pairs[j]
                 cs = rw.clause_coords(inside, rng)
-                f = _feats_of_coords(rw, cs)
+                f = feats_of_coords(rw, cs)
                 hit = np.flatnonzero(predicts(inside, f) & (signed(other, f) > cfg.margin))
                 if len(hit):
                     return cs[hit[0]], "active"

@@ -5,7 +5,7 @@ continuous templates of ``stdlib/templates.tmpc`` reduce each observation to one
 (the norm of the manipulator's offset from the object for ``dist``, the absolute relative angle
 for the alignment bands), and their set is {t <= theta}: a ball or an interval, whose CPZ
 (:meth:`Template.cpz`) is the one `tmpc.compiler.cpz` computes with. For these sets the distance
-to the set and to its boundary have exact closed forms (MATH.md §C.3b, "exact special cases"),
+to the set and to its boundary have exact closed forms (docs/math.md §C.3b, "exact special cases"),
 which is what the error uses; ``tests/runtime/test_repair.py`` checks them against the CPZ
 solver and against the DSL predicate each template stands for.
 
@@ -13,7 +13,7 @@ A *discrete* template is a domain predicate over some of the action's parameters
 holds or not in the observation's mode.
 
 A :class:`Formula` is a conjunction of discrete literals with a DNF of continuous clauses. Its
-signed distance (MATH.md §C.2, "keep Boolean structure symbolic") is, for disjoint coordinates,
+signed distance (docs/math.md §C.2, "keep Boolean structure symbolic") is, for disjoint coordinates,
 sqrt(sum of squares) over a clause's literals outside, the minimum over clauses, and the
 minimum distance to a boundary inside; a violated discrete literal counts ``KAPPA``.
 """

@@ -21,7 +21,7 @@ import numpy as np
 
 from tmpc.compiler.cpz import sample
 from tmpc.compiler.robot import homogeneous
-from tmpc.compiler.rotations import matrix_to_quat
+from tmpc.compiler.rotations import quat_from_matrix
 from tmpc.compiler.state import initial_state, state_from_json, world_poses
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import InputError, error
@@ -41,7 +41,7 @@ def _rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
 
 def _pose_json(T: np.ndarray) -> dict:
     return {"translation": [float(v) for v in T[:3, 3]],
-            "rotation": [float(v) for v in matrix_to_quat(T[:3, :3])]}
+            "rotation": quat_from_matrix(T[:3, :3]).tolist()}
 
 
 class RepairWorld:

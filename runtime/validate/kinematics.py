@@ -7,9 +7,8 @@ independent implementation ``tests/compiler/test_fk.py`` checks the JAX kinemati
 pinocchio, a walk down the joint tree of this module's own description (``urdf``: each joint's
 origin times its motion about its axis) stands in; yourdfpy's scene-graph kinematics
 (``update_cfg`` / ``get_transform``, backend ``yourdfpy``) is the reference its tests hold it to.
-yourdfpy's took ~6 ms per PR2 state whose joints changed, and `tmpc run --html` 0.64 s to write
-the bundled example's page; the walk takes ~0.5 ms a state, the page 0.11 s (2026-12-04). All
-three are independent of the planner's generated JAX code.
+The walk is preferred to yourdfpy's scene graph because it is much cheaper per state (a page
+poses every body at every frame). All three are independent of the planner's generated JAX code.
 
 The robot's root link is placed at a world pose given per state (the plan's ``base_pose``): the
 validator never reconstructs it from (x, y, yaw) except to interpolate a motion
@@ -32,7 +31,7 @@ from tmpc.compiler.cache import package_version, urdf_entry
 # re-exports it through tmpc.runtime.validate. Its forward kinematics (below) stays its own
 # (pinocchio / yourdfpy), independent of tmpc.compiler.robot.
 from tmpc.compiler.rotations import quat_matrix as quat_matrix
-from tmpc.compiler.rotations import quat_of as quat_of
+from tmpc.compiler.rotations import quat_from_matrix as quat_from_matrix
 from tmpc.lang.fileio import atomic_write_text
 from tmpc.lang.world import find_file, import_yourdfpy, load_urdf
 
@@ -103,8 +102,8 @@ def urdf_path(scene) -> str:
 
 
 def read_urdf(path: str | Path) -> RobotDescription:
-    """:func:`parse_urdf` through the cache (``viewer/``, JSON): yourdfpy and the trimesh it
-    imports took ~0.9 s of every `tmpc run --html` (2026-12-04). The key is the file's path and
+    """:func:`parse_urdf` through the cache (``viewer/``, JSON): importing yourdfpy and the
+    trimesh it imports would dominate `tmpc run --html`'s own time. The key is the file's path and
     contents, the mesh search path, yourdfpy's version and tmpc's code; an entry naming a mesh
     file that is gone, or that cannot be read, is parsed again. A description with unresolved
     meshes is not kept (they may appear)."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from tmpc.compiler.lua_trace import LuaFallback
 from tmpc.compiler.robot import Frames, robot_model
-from tmpc.compiler.state import matrix_to_quat
+from tmpc.compiler.rotations import quat_from_matrix
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.lua import load_lua_predicates, lua_limits
 from tmpc.runtime.evaluate import Evaluator, Obj
@@ -79,7 +79,7 @@ class Predicates:
         for n in names:
             T = self.frame_T(st, n)
             T = np.eye(4) if T is None else T
-            poses.append(list(T[:3, 3]) + list(matrix_to_quat(T[:3, :3])))
+            poses.append(list(T[:3, 3]) + quat_from_matrix(T[:3, :3]).tolist())
             o = self.scene.object(n)
             supports.append(None if o is None or o.support is None else
                             (tuple(o.support.lower), tuple(o.support.upper)))

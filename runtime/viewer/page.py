@@ -7,19 +7,20 @@ colours), the scene's objects, per-frame poses of every body, and a small WebGL2
 (``assets/viewer.js``, ~300 lines: one vertex buffer per mesh, flat Lambert shading from
 screen-space derivatives, per-frame model matrices, an orbit camera, a timeline with action
 labels, play/pause, speed, keyboard stepping). It is written for tmpc rather than vendoring
-three.js: three.js is ~700 kB minified before any data, needs a licence header and package data,
-and a plan viewer uses a tiny part of it (no materials, loaders, scene graph or post-processing);
-the page for a PR2 clutter plan is 0.4–1.1 MB with the renderer under 20 kB.
+three.js: three.js is large before any data, needs a licence header and package data, and a
+plan viewer uses a tiny part of it (no materials, loaders, scene graph or post-processing); the
+renderer here is a small part of a page, most of which is meshes and poses.
 
-Meshes (:mod:`.viewer_scene`) are decimated by vertex clustering to at most :data:`HTML_FACES`
-triangles per file and stored quantized (uint16 per coordinate over the mesh's box, base64).
-Poses are computed with the validator's forward kinematics (pinocchio or yourdfpy) at every
-state and at intermediate configurations along each straight motion (no coordinate moves more
+Meshes (:mod:`tmpc.runtime.viewer.scene`) are decimated by vertex clustering to at most
+:data:`HTML_FACES` triangles per file and stored quantized (uint16 per coordinate over the mesh's
+box, base64). Poses are computed with the validator's forward kinematics (pinocchio or yourdfpy) at
+every state and at intermediate configurations along each straight motion (no coordinate moves more
 than ``VIEW_STEP`` between two), positions as float32 and quaternions as int16; the page
 interpolates linearly between these frames. Held objects ride on their frame (``mode.held``);
 in a bare legacy array, objects are interpolated between the states' poses.
 
-**The snapshot** (:mod:`.viewer_png`): a small numpy z-buffer rasterizer, Pillow for the file.
+**The snapshot** (:mod:`tmpc.runtime.viewer.png`): a small numpy z-buffer rasterizer, Pillow
+for the file.
 
 Every output is written to a temporary file beside it and renamed into place.
 """
@@ -33,13 +34,13 @@ from pathlib import Path
 import numpy as np
 
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.runtime.validate import heading, quat_of
+from tmpc.runtime.validate import heading, quat_from_matrix
 from tmpc.runtime.viewer.png import (
     BACKGROUND,
     CAMERA_YAW,
-    _as_plan,
-    _atomic_write,
+    as_plan,
     render,
+    write_atomic_bytes,
     write_png,
 )
 from tmpc.runtime.viewer.scene import Poser, decimate
@@ -77,7 +78,7 @@ def page_data(world, plan, title: str) -> dict:
                       "T": [round(float(x), 6) for x in p.local.T.ravel()]})
     P = np.stack(s.poses) if s.poses else np.zeros((0, len(s.nodes), 4, 4))
     pos = P[..., :3, 3].astype("<f4")
-    rot = np.array([[quat_of(T[:3, :3]) for T in frame] for frame in P]).reshape(
+    rot = np.array([[quat_from_matrix(T[:3, :3]) for T in frame] for frame in P]).reshape(
         len(P), len(s.nodes), 4)
     rot = np.round(rot * 32767).astype("<i2")
     bounds = [list(b) for b in world.scene.bounds]
@@ -151,13 +152,13 @@ _UI = """<div id="hud"><h1>{title}</h1><div id="label"></div></div>
 def write_html(world, plan_dict, path) -> int:
     """Write the animated page of ``plan_dict`` (a tmpc-plan/1 dict, a bare state array, or a
     :class:`~tmpc.runtime.plans.read.Plan`) to ``path``; returns its size in bytes."""
-    plan = _as_plan(plan_dict)
+    plan = as_plan(plan_dict)
     src = Path(world.config.path if world.config is not None else world.scene.path)
     name = f"{src.parent.name}/{src.name}" if src.parent.name else src.name
     text = html_page(page_data(world, plan, f"tmpc plan: {name} ({len(plan.states)} states, "
                                             f"{plan.action_count} actions)"))
     data = text.encode("utf-8")
-    _atomic_write(path, data)
+    write_atomic_bytes(path, data)
     return len(data)
 
 

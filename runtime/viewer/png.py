@@ -33,7 +33,7 @@ def write_png(world, plan_dict, path, state_index: int | None = None,
     """A PNG of the whole scene at one state (default: the last), ``size`` = (width, height)
     pixels, seen from the robot's front right and framed to show every object (a view of the
     robot and what was near it left the tables out of clutter's first state)."""
-    plan = _as_plan(plan_dict)
+    plan = as_plan(plan_dict)
     n = len(plan.states)
     i = n - 1 if state_index is None else state_index
     if not -n <= i < n:
@@ -186,16 +186,17 @@ def _save_png(img: np.ndarray, title: str, path) -> None:
               fill=(34, 34, 51), font=font)
     buf = io.BytesIO()
     im.save(buf, format="PNG", optimize=True)
-    _atomic_write(path, buf.getvalue())
+    write_atomic_bytes(path, buf.getvalue())
 
 
-def _as_plan(plan_dict):
+def as_plan(plan_dict):
+    """A :class:`tmpc.runtime.plans.Plan` of a plan or of its JSON (a dict)."""
     if isinstance(plan_dict, Plan):
         return plan_dict
     return parse_plan(SourceFile("<plan>", json.dumps(plan_dict)))
 
 
-def _atomic_write(path, data: bytes) -> None:
+def write_atomic_bytes(path, data: bytes) -> None:
     """lang.fileio's atomic write; an unwritable place is E815, not a traceback."""
     try:
         atomic_write_bytes(path, data)

@@ -20,7 +20,7 @@ from tmpc.compiler.cpz import CPZ, solve
 pytestmark = pytest.mark.bench
 
 SETS = {
-    "ball (MATH.md §4.2, n=3, p=4)": CPZ.ball([0.5, -0.2, 1.0], 0.3),
+    "ball (docs/math.md §C.4.2, n=3, p=4)": CPZ.ball([0.5, -0.2, 1.0], 0.3),
     "README set (§4.6, n=2, p=3)": CPZ.make(
         [0, 0], [[1, 0, 1, -1], [0, 1, 1, 1]], [[1, 0, 1, 2], [0, 1, 1, 0], [0, 0, 1, 1]],
         [[1, -0.5, 0.5]], [0.5], [[0, 1, 2], [1, 0, 0], [0, 1, 0]]),
@@ -78,7 +78,7 @@ def test_cpz_distance_batched_vs_scipy(monkeypatch):
     for label, S in SETS.items():
         rates = {N: _rate(S, N) for N in (1000, 10000)}
         with monkeypatch.context() as m:
-            m.setattr(solve, "_unrolled_ok", lambda S: False)
+            m.setattr(solve, "unrolled_ok", lambda S: False)
             padded = _rate(S, 10000)
         X = _points(S, 100)
         starts = np.vstack([np.zeros(S.p),

@@ -15,7 +15,7 @@ import pytest
 
 from tests.bench.gen import big_domain, big_problem
 from tmpc.lang.reader import parse_source
-from tmpc.lang.sexpr import _parser
+from tmpc.lang.sexpr import sexpr_parser
 from tmpc.lang.source import SourceFile
 
 pytestmark = pytest.mark.bench
@@ -49,7 +49,7 @@ def test_check_process_time_and_parse_throughput(tmp_path):
     python = _median_wall([sys.executable, "-c", "pass"])
     check = _median_wall([sys.executable, "-m", "tmpc.runtime.cli", "check", str(dom), str(prob)])
     text = dom.read_text()
-    lark_only = _throughput(lambda t: _parser().parse(t), text)
+    lark_only = _throughput(lambda t: sexpr_parser().parse(t), text)
     ours = _throughput(lambda t: parse_source(SourceFile("d.pddl", t)), text)
     print(f"\n| measure | value |\n|---|---|\n"
           f"| input | {lines} lines (domain + problem) |\n"

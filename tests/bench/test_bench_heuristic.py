@@ -22,7 +22,7 @@ from tests.support import EXAMPLES
 from tmpc.compiler.ground import bits, ground
 from tmpc.lang.program import Workspace, check_parsed
 from tmpc.lang.source import SourceFile
-from tmpc.runtime.planners.heuristic import _BIG, _GOAL, FFHeuristic, _Analysis, _rlevel, _witness
+from tmpc.runtime.planners.heuristic import UNREACHED, GOAL_UNIT, FFHeuristic, Analysis, relaxed_level, relaxed_witness
 
 pytestmark = pytest.mark.bench
 
@@ -32,7 +32,7 @@ class NaiveScan(FFHeuristic):
 
     def _explore(self, state):
         t = self.task
-        level, sup = [_BIG] * t.n, [-1] * t.n
+        level, sup = [UNREACHED] * t.n, [-1] * t.n
         for p in bits(state):
             level[p] = 0
         fired, witness = bytearray(len(t.pre)), {}
@@ -47,8 +47,8 @@ class NaiveScan(FFHeuristic):
                         continue
                     if t.formula[u] is not None:
                         witness[u] = []
-                        _witness(t.formula[u], level, witness[u])
-                    if t.act[u] == _GOAL:
+                        relaxed_witness(t.formula[u], level, witness[u])
+                    if t.act[u] == GOAL_UNIT:
                         return self._extract(state, level, sup, u, L, witness)
                     fired[u] = 1
                     lv = L + t.cost[u]
@@ -61,7 +61,7 @@ class NaiveScan(FFHeuristic):
                             else:
                                 later.append(q)
             if not later:
-                return _Analysis(math.inf, math.inf)
+                return Analysis(math.inf, math.inf)
             for q in later:
                 reached |= 1 << q
             L += 1
@@ -69,7 +69,7 @@ class NaiveScan(FFHeuristic):
     def _ready(self, u, L, level, reached) -> bool:
         t = self.task
         if t.formula[u] is not None:
-            return _rlevel(t.formula[u], level) <= L
+            return relaxed_level(t.formula[u], level) <= L
         return all(level[p] <= L for p in t.pre[u])
 
 
@@ -82,7 +82,7 @@ class NaiveBitset(NaiveScan):
 
     def _ready(self, u, L, level, reached) -> bool:
         if self.task.formula[u] is not None:
-            return _rlevel(self.task.formula[u], level) <= L
+            return relaxed_level(self.task.formula[u], level) <= L
         m = self._masks[u]
         return reached & m == m
 

@@ -1,5 +1,5 @@
 """The SAT task planner: every plan replays, lengths are optimal (against breadth-first search),
-exclusion and evidence constraints do what MATH.md §B says, and the static checks."""
+exclusion and evidence constraints do what docs/math.md §B says, and the static checks."""
 
 from __future__ import annotations
 

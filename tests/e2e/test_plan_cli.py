@@ -71,7 +71,7 @@ def test_output_file_is_written_atomically_with_normal_permissions(tmp_path, cap
     assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~mask
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.plan"]      # no temp left
     assert main(["plan", *BLOCKS, "-o", str(tmp_path / "no" / "dir.plan")]) == 1
-    assert "E614" in capsys.readouterr().err
+    assert "E828" in capsys.readouterr().err
 
 
 def test_verbose_prints_statistics_per_horizon(capsys):

@@ -237,9 +237,9 @@ def test_setup_progress_lines_on_a_terminal_and_in_a_log():
     compile starts (a run from the artifact cache) and nothing after `done`."""
     import io
 
-    from tmpc.runtime.cli.run import _SetupProgress
+    from tmpc.runtime.cli.run import SetupProgress
     log = io.StringIO()
-    p = _SetupProgress(log, tty=False)
+    p = SetupProgress(log, tty=False)
     p("compiling kernels", 1, 3, "condition pick")
     assert log.getvalue() == ""                               # not compiling: silent
     p.start(Path("/cache/runs/abc.tmpa"))
@@ -253,7 +253,7 @@ def test_setup_progress_lines_on_a_terminal_and_in_a_log():
     assert lines[1].endswith("compiling kernels 1/3 (projector pick)...")
     assert lines[2].endswith("preparing the planner...") and "\r" not in log.getvalue()
     tty = io.StringIO()
-    p = _SetupProgress(tty, tty=True)
+    p = SetupProgress(tty, tty=True)
     p.start(Path("/cache/runs/abc.tmpa"))
     p("compiling kernels", 1, 3, "condition pick")
     p.done()

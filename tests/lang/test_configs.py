@@ -363,19 +363,19 @@ def test_lua_limits_from_the_command_line_for_a_legacy_configuration(tmp_path, c
     shutil.copytree(EXAMPLES / "planet-sort", ex)
     lua_file = ex / "sort.lua"
     lua_file.write_text('for i = 1, 3e6 do local s = ("x"):rep(1e6) end\n' + lua_file.read_text())
-    saved = dict(lua._OVERRIDES)
+    saved = lua.clear_lua_overrides()
     try:
         capsys.readouterr()
         assert main(["check", str(ex / "sort.toml"), "--lua-seconds", "0.3"]) == 1
         err = capsys.readouterr().err
         assert "error[E704]" in err and "time limit (0.3 s" in err and "--lua-seconds" in err
-        lua._OVERRIDES.clear()
+        lua.clear_lua_overrides()
         lua_file.write_text("for i = 1, 1e5 do end\n" + lua_file.read_text())
         assert main(["check", str(ex / "sort.toml"), "--lua-instructions", "1000"]) == 1
         assert "instruction limit (1,000)" in capsys.readouterr().err
     finally:
-        lua._OVERRIDES.clear()
-        lua._OVERRIDES.update(saved)
+        lua.clear_lua_overrides()
+        lua.override_lua_limits(**saved)
     with pytest.raises(SystemExit) as exc:
         main(["check", str(ex / "sort.toml"), "--lua-seconds", "-1"])
     assert exc.value.code == 2

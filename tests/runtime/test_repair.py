@@ -63,7 +63,7 @@ def test_the_target_reads_the_model_and_lists_the_instances(rw):
 
 
 def test_sampled_states_realise_their_coordinates_through_the_dsl_helpers(rw):
-    from tmpc.runtime.repair.loop import _feats_of_coords
+    from tmpc.runtime.repair.loop import feats_of_coords
     rng = np.random.default_rng(3)
     for _ in range(5):
         coords = rw.naive_coords(rng)
@@ -74,7 +74,7 @@ def test_sampled_states_realise_their_coordinates_through_the_dsl_helpers(rw):
         for name in ("roll", "pitch", "yaw"):
             got = feats[f"({name}-aligned ?c ?g)"][0]
             assert math.isclose(got, c[f"relative-{name}"], abs_tol=1e-9), name
-        direct = _feats_of_coords(rw, [coords])
+        direct = feats_of_coords(rw, [coords])
         for inst in rw.cont:
             assert math.isclose(direct.t[inst][0], TEMPLATES[inst.name].feature(
                 np.array([feats[inst.text()]]))[0], abs_tol=1e-9)

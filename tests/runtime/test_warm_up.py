@@ -1,4 +1,4 @@
-"""The warm-up's kernel loads (tmpc.runtime.problem._Loads): every call runs once, on the
+"""The warm-up's kernel loads (tmpc.runtime.problem.KernelLoads): every call runs once, on the
 background thread or on the caller's once it helps, and an error reaches the caller."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from tmpc.runtime.problem import _Loads
+from tmpc.runtime.problem import KernelLoads
 
 
 def test_each_load_runs_once_and_the_caller_takes_what_is_left():
@@ -26,7 +26,7 @@ def test_each_load_runs_once_and_the_caller_takes_what_is_left():
         return run
 
     helped = threading.Event()
-    loads = _Loads([call(i) for i in range(5)])
+    loads = KernelLoads([call(i) for i in range(5)])
     assert started.wait(10)
     seen = []
     loads.finish(seen.append)
@@ -39,7 +39,7 @@ def test_an_error_in_a_load_is_raised_by_finish():
     def bad():
         raise RuntimeError("no executable")
 
-    loads = _Loads([bad, lambda: None])
+    loads = KernelLoads([bad, lambda: None])
     with pytest.raises(RuntimeError, match="no executable"):
         loads.finish()
 
@@ -78,7 +78,7 @@ def test_calls_added_later_run_once_even_after_the_thread_ran_out():
                 ran.append((i, threading.current_thread().name))
         return run
 
-    loads = _Loads([call(0)])
+    loads = KernelLoads([call(0)])
     for _ in range(500):                       # the first thread runs out of calls
         if ran and not loads._working:
             break

@@ -1,4 +1,4 @@
-"""The language server's worker (tmpc.runtime.editor): its request functions agree with the
+"""The language server's worker (tmpc.runtime.lsp_worker): its request functions agree with the
 commands (`tmpc sample`, `tmpc eval`, `tmpc check --static`), its cache notices edits, and the
 process speaks only protocol lines on stdout, survives bad requests and exits on end of input."""
 
@@ -15,7 +15,7 @@ import pytest
 from tests.support import EXAMPLES, TABLETOP
 from tmpc.lang.diagnostics import Diagnostic, Related, Severity, TmpcError
 from tmpc.lang.source import Span
-from tmpc.runtime.editor import diagnostic_to_json, respond, work
+from tmpc.runtime.lsp_worker import diagnostic_to_json, respond, work
 
 REACH = ["reach", "panda_hand_tcp", "red_cube"]
 
@@ -185,7 +185,7 @@ def test_an_unexpected_exception_names_its_type(capsys):
 
 
 def test_the_door_answers_ping_without_loading_the_compiler():
-    code = ("import sys; from tmpc.runtime.editor import respond; "
+    code = ("import sys; from tmpc.runtime.lsp_worker import respond; "
             "r = respond('{\"id\": 1, \"method\": \"ping\"}'); assert r['result']['pid'] > 0; "
             "heavy = [m for m in ('numpy', 'jax', 'z3', 'lupa', 'tmpc.compiler.compile') "
             "if m in sys.modules]; assert not heavy, heavy")
@@ -194,7 +194,7 @@ def test_the_door_answers_ping_without_loading_the_compiler():
 
 
 def test_prints_go_to_stderr_once_the_protocol_has_stdout():
-    code = ("import os; from tmpc.runtime.editor.protocol import _protocol_stream; "
+    code = ("import os; from tmpc.runtime.lsp_worker.protocol import _protocol_stream; "
             "s = _protocol_stream(); print('from python'); os.write(1, b'from C\\n'); "
             "s.write('protocol\\n'); s.flush()")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
@@ -215,7 +215,7 @@ def test_the_worker_process_answers_survives_and_exits_on_eof():
         {"id": 5, "method": "ping"},
     ]
     lines = "".join((r if isinstance(r, str) else json.dumps(r)) + "\n" for r in requests)
-    proc = subprocess.run([sys.executable, "-m", "tmpc.runtime.editor"], input=lines,
+    proc = subprocess.run([sys.executable, "-m", "tmpc.runtime.lsp_worker"], input=lines,
                           capture_output=True, text=True, timeout=180)
     assert proc.returncode == 0, proc.stderr
     replies = [json.loads(line) for line in proc.stdout.splitlines()]

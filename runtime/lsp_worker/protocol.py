@@ -2,9 +2,9 @@
 
 A request is one line ``{"id": int, "method": str, "params": {...}}``; the answer is one line
 ``{"id": ..., "result": ...}`` or ``{"id": ..., "error": {"message": str, "diagnostics":
-[...]}}`` (diagnostics in :mod:`tmpc.runtime.editor.wire`'s form). Methods (:data:`METHODS`):
+[...]}}`` (diagnostics in :mod:`tmpc.runtime.lsp_worker.wire`'s form). Methods (:data:`METHODS`):
 ``ping`` -> ``{"pid"}``, and ``witness``, ``evaluate``, ``static``, ``view`` whose params are
-the keyword arguments of :mod:`tmpc.runtime.editor.work`'s functions.
+the keyword arguments of :mod:`tmpc.runtime.lsp_worker.work`'s functions.
 
 Nothing a request does stops the loop: a :class:`~tmpc.lang.diagnostics.TmpcError` is answered
 with its diagnostics, any other exception with its type and message (its traceback goes to
@@ -26,9 +26,9 @@ import traceback
 from typing import Callable, TextIO
 
 from tmpc.lang.diagnostics import TmpcError
-from tmpc.runtime.editor.wire import diagnostic_to_json
+from tmpc.runtime.lsp_worker.wire import diagnostic_to_json
 
-#: method -> the function of :mod:`tmpc.runtime.editor.work` it calls (``ping`` is the loop's)
+#: method -> the function of :mod:`tmpc.runtime.lsp_worker.work` it calls (``ping`` is the loop's)
 METHODS = {"ping": None, "witness": "witness", "evaluate": "evaluate", "static": "static_checks",
            "view": "view"}
 
@@ -118,7 +118,7 @@ def _call(method: str, params: dict):
 def _handler(method: str) -> Callable:
     # imported on the first heavy request, for start-up time: `ping` answers before numpy, the
     # compiler and JAX are loaded
-    from tmpc.runtime.editor import work
+    from tmpc.runtime.lsp_worker import work
     return getattr(work, METHODS[method])
 
 
@@ -134,7 +134,7 @@ def _finite(value):
 
 
 def main() -> int:
-    """Run the worker on this process's stdin and stdout (``python -m tmpc.runtime.editor``)."""
+    """Run the worker on this process's stdin and stdout (``python -m tmpc.runtime.lsp_worker``)."""
     protocol = _protocol_stream()
     stdin = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
     return serve(stdin, protocol)

@@ -30,7 +30,7 @@ from tmpc.compiler.smt import static_checks as smt_static_checks
 from tmpc.lang.inputs import World
 from tmpc.lang.scope import type_keys
 from tmpc.runtime.collision import collision_world
-from tmpc.runtime.editor.wire import diagnostic_to_json
+from tmpc.runtime.lsp_worker.wire import diagnostic_to_json
 from tmpc.runtime.geo_checks import geometric_checks
 from tmpc.runtime.probe import (
     condition_at,
@@ -194,7 +194,7 @@ def evaluate(config, *, predicate: str | None = None, action: str | None = None,
 
 def static_checks(config, budget: float = 2.0, geometry_budget: float = 20.0) -> list[dict]:
     """What ``tmpc check --static CONFIG`` adds to the plain check, as JSON diagnostics
-    (:mod:`tmpc.runtime.editor.wire`): the SAT/relaxation checks of the configuration's program
+    (:mod:`tmpc.runtime.lsp_worker.wire`): the SAT/relaxation checks of the configuration's program
     (W610-W613, within ``budget`` s) and the geometric ones (W614, within ``geometry_budget``
     s). Kept per loaded world: unchanged files are not checked again."""
     loaded = WORLDS.get(config)
