@@ -158,7 +158,7 @@ def _cached(sources: str, options) -> Callable[[str, tuple, Callable[[], bytes]]
 def build_artifact(world, out: str | Path, register=None, run_only: bool = False,
                    progress=None) -> dict:
     """Compile ``world`` (a :class:`tmpc.lang.inputs.World` with a program) into ``out``: every
-    kernel :meth:`CompiledProgram.register_kernels` names, plus those ``register(world,
+    kernel :meth:`tmpc.compiler.compile.CompiledProgram.register_kernels` names, plus those ``register(world,
     compiled)`` adds (the runtime's), exported; ``run_only``: only what planning calls (the run
     cache's artifacts). ``progress(phase, done, total, detail)``: told each phase, and each
     kernel as it is exported (the slow part). Returns the manifest."""

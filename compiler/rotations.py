@@ -69,14 +69,4 @@ def rpy_of(R: np.ndarray) -> np.ndarray:
     return np.array([math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])])
 
 
-# Old names still called by runtime/evaluate.py and runtime/viewer/scene.py (owned elsewhere
-# during issue P); remove once they call quat_from_matrix.
-quat_of = quat_from_matrix
-
-
-def matrix_to_quat(R: np.ndarray) -> tuple[float, float, float, float]:
-    """:func:`quat_from_matrix` as a tuple of Python floats (see the note above)."""
-    return tuple(quat_from_matrix(R).tolist())
-
-
 __all__ = ["pose_matrix", "quat_from_matrix", "quat_matrix", "rpy_of"]

@@ -3,7 +3,7 @@
 It backs `tmpc eval --expr` and serves the compiler's tests as an independent reference: it walks
 the AST and never touches the compiler's IR or kernels. Values: ``float``, ``np.ndarray`` (3,)
 for vec3, :class:`Quat`, :class:`AABB`, ``np.ndarray`` (4, 4) for transforms, ``bool``, and
-:class:`Obj` for objects/frames. Comparisons hold within ``tol`` (default 1e-3, DESIGN §4).
+:class:`Obj` for objects/frames. Comparisons hold within ``tol`` (default 1e-3, docs/design.md §4).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tmpc.compiler.robot import RobotModel, homogeneous
-from tmpc.compiler.rotations import matrix_to_quat, quat_matrix, rpy_of
+from tmpc.compiler.rotations import quat_from_matrix, quat_matrix, rpy_of
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.symbols import NUMBER_CONSTANTS
@@ -107,7 +107,7 @@ class Evaluator:
             return all(results) if e.kind == "forall" else any(results)
         return self.call(e, env)
 
-    # ---- unsatisfaction distance (MATH.md §A), straight from the AST -----------------------
+    # ---- unsatisfaction distance (docs/math.md §A), straight from the AST ------------------
     def distance(self, e: A.Expr, env: dict | None = None, neg: bool = False,
                  and_mode: str = "l2") -> float:
         """W of a condition (of its negation when ``neg``): 0 exactly where it holds."""
@@ -341,7 +341,7 @@ _OPS = {
     "distance": lambda ev, e, a, b: float(np.linalg.norm(_vec(a) - _vec(b))),
     "x": _component(0), "y": _component(1), "z": _component(2),
     "position": lambda ev, e, o: ev.T(o, e)[:3, 3].copy(),
-    "orientation": lambda ev, e, o: Quat(matrix_to_quat(ev.T(o, e)[:3, :3])),
+    "orientation": lambda ev, e, o: Quat(tuple(quat_from_matrix(ev.T(o, e)[:3, :3]).tolist())),
     "transform": lambda ev, e, o: ev.T(o, e).copy(),
     "rpy": lambda ev, e, o: rpy_of(ev.R(o, e)),
     "roll": lambda ev, e, o: float(rpy_of(ev.R(o, e))[0]),

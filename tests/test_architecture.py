@@ -224,9 +224,7 @@ def private_uses(path: Path, module: str, source: str | None = None) -> list[str
 #: Files other helpers own while issue P's parts are written in parallel (their private names
 #: come from modules they own); the coordinator gives the names public spellings after merging
 #: and empties this set.
-PRIVATE_NOT_YET = {"runtime/collision/kinematics.py", "tests/runtime/test_collision.py",
-                   "tests/runtime/test_optimal.py", "tests/runtime/test_aot.py",
-                   "tests/runtime/test_kinematics.py", "tests/runtime/test_validate.py"}
+PRIVATE_NOT_YET: set[str] = set()
 
 
 def test_no_private_names_across_modules():

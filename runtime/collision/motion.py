@@ -61,7 +61,7 @@ class PassStats:
 
 
 class BatchChecker:
-    """The batch, batched-motion and motion checks of a :class:`CollisionWorld`, with their
+    """The batch, batched-motion and motion checks of a :class:`tmpc.runtime.collision.world.CollisionWorld`, with their
     counters and caches (exact queries per geometry pair, the fixed objects of recent modes)."""
 
     def __init__(self, world: "CollisionWorld"):
@@ -260,8 +260,9 @@ class BatchChecker:
         states are visited by rank, and a dead segment's are skipped.
 
         States with a pair the pass marked sure to collide (a mesh with a convex hull, one of
-        whose hull vertices lies deeper than ``tolerance`` + :data:`~tmpc.runtime.collision.
-        spheres.SURE_DEPTH` inside a box primitive) are colliding with no query. That is fcl's
+        whose hull vertices lies deeper than ``tolerance`` +
+        :data:`~tmpc.runtime.collision.first_pass.SURE_DEPTH` inside a box primitive) are
+        colliding with no query. That is fcl's
         answer: qhull's hull vertices are vertices of the mesh, so a triangle of the mesh
         reaches into the solid box and fcl's mesh-box test touches; and any translation that
         separates the hull from the box moves that vertex out of it, so their penetration

@@ -68,7 +68,7 @@ class CollisionWorld:
         #: :func:`tmpc.compiler.robot.make_fk_frames`, padded by :meth:`kinematics`) or the
         #: compiled loop (:class:`tmpc.runtime.collision.kinematics.Kinematics`)
         self.fk_frames = frames if frames is not None else Kinematics(model)
-        #: the world's bodies, geometries, scene placements and pairs (:mod:`.build`)
+        #: the world's bodies, geometries, scene placements and pairs (:mod:`tmpc.runtime.collision.build`)
         self.parts = parts = WorldParts(scene, model, allowed, srdf, attach_allowed)
         self.bodies, self.geoms, self.default_place = parts.bodies, parts.geoms, parts.default_place
         #: link name -> body (objects: :meth:`object_body`, by name without case)
@@ -76,17 +76,17 @@ class CollisionWorld:
         self.unmatched_allowed: tuple[str, ...] = parts.unmatched_allowed
         self.allowed = parts.allowed
         self.dynamic, self.static, self.dd, self.ds = parts.dynamic, parts.static, parts.dd, parts.ds
-        #: body of each geometry, and each geometry's position in :attr:`dynamic` (-1: static)
+        #: body of each geometry, and each geometry's position in ``dynamic`` (-1: static)
         self.geom_body, self.dynamic_position = parts.geom_body, parts.dynamic_position
         #: what the first pass reads of this world
         self.geometry = parts.pass_geometry(self.tolerance)
-        #: fcl's answers on one state (:mod:`.exact`)
+        #: fcl's answers on one state (:mod:`tmpc.runtime.collision.exact`)
         self.exact = ExactChecker(parts, self.tolerance)
         self._first_pass_enabled = first_pass
         self._first_pass: FirstPass | None = None
         #: placements of recent states by content (batch and motion calls repeat them)
         self._placements: dict = {}
-        #: batches, batched motions and motions (:mod:`.motion`), with their counters
+        #: batches, batched motions and motions (:mod:`tmpc.runtime.collision.motion`), with their counters
         self.batch = BatchChecker(self)
 
     @property

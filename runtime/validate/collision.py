@@ -1,5 +1,5 @@
 """The validator's collision checker: raw python-fcl objects built here from the URDF's collision
-elements (read by :mod:`.validate_kinematics`) and the scene's shapes, independent of
+elements (read by :mod:`tmpc.runtime.validate.kinematics`) and the scene's shapes, independent of
 :class:`tmpc.runtime.collision.CollisionWorld` (its sphere first pass, pair tables, managers and
 allowed-pair code are not used).
 
@@ -19,7 +19,7 @@ What counts as a collision is the contract of docs/collision.md, implemented aga
   meshes (BVH) and the depth is the penetration depth of the convex hulls (an upper bound, exact
   for convex meshes), because fcl's per-triangle depths are meaningless for mesh pairs. fcl's
   (libccd's) EPA estimates it; an estimate above the tolerance is confirmed with the exact depth
-  when both shapes are polytopes (:func:`_polytope_depth`): EPA overestimated it by up to 2.2x
+  when both shapes are polytopes (:func:`polytope_depth`): EPA overestimated it by up to 2.2x
   in 1% of 3,000 contacts near the tolerance on tmit-star's clutter (never under it), and a
   validator trusting it rejected a planner's valid motion (a held stick brushing another:
   EPA 0.036 m, exact 0.026 m, tolerance 0.029 m).
@@ -42,7 +42,7 @@ DEPTH_EPS = 1e-9
 
 
 @dataclass(eq=False)
-class _Geom:
+class Geom:
     body: int
     local: np.ndarray          # T_body_geom
     obj: object                # fcl.CollisionObject
@@ -69,7 +69,7 @@ def load_mesh(path: Path, scale) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     return _MESHES[key]
 
 
-def _fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0, 1.0, 1.0)):
+def fcl_shape(kind: str, size=(), radius=0.0, length=0.0, path=None, scale=(1.0, 1.0, 1.0)):
     """(fcl geometry, hull geometry or None, AABB center, AABB half extents, polytope vertices
     or None); ``size`` is the box's full extents."""
     return dispatch_shape(_FCL_SHAPE, kind, "the validator's fcl geometry")(
@@ -181,7 +181,7 @@ class Checker:
         self.kinds: list[str] = []
         self.static: list[bool] = []
         self.link_index: list[int] = []         # body -> index in desc.links (-1 objects)
-        self.geoms: list[_Geom] = []
+        self.geoms: list[Geom] = []
         links = desc.links if desc is not None else []
         for k, name in enumerate(links):
             geoms = desc.collision.get(name, [])
@@ -209,11 +209,11 @@ class Checker:
         self.link_index.append(link)
         for shape, T in parts:
             if isinstance(shape, UGeom):
-                geom, hull, c, h, pts = _fcl_shape(shape.kind, shape.size, shape.radius,
+                geom, hull, c, h, pts = fcl_shape(shape.kind, shape.size, shape.radius,
                                                    shape.length, shape.path, shape.scale)
             else:
                 geom, hull, c, h, pts = _scene_shape(shape)
-            self.geoms.append(_Geom(b, np.asarray(T, float), fcl.CollisionObject(geom),
+            self.geoms.append(Geom(b, np.asarray(T, float), fcl.CollisionObject(geom),
                                     None if hull is None else fcl.CollisionObject(hull), c, h,
                                     pts))
 
@@ -371,7 +371,7 @@ class Checker:
                 a, b = b, a
             yield a, b, float(d)
 
-    def _depth(self, A: _Geom, B: _Geom) -> float | None:
+    def _depth(self, A: Geom, B: Geom) -> float | None:
         import fcl
         res = fcl.CollisionResult()
         if not fcl.collide(A.obj, B.obj, self._req, res):
@@ -385,14 +385,14 @@ class Checker:
             return 0.0
         depth = abs(res.contacts[0].penetration_depth)
         if depth > self.tolerance + DEPTH_EPS and A.pts is not None and B.pts is not None:
-            exact = _polytope_depth(A.pts @ A.T[:3, :3].T + A.T[:3, 3],
+            exact = polytope_depth(A.pts @ A.T[:3, :3].T + A.T[:3, 3],
                                     B.pts @ B.T[:3, :3].T + B.T[:3, 3])
             if exact is not None:
                 return exact
         return depth
 
 
-def _polytope_depth(PA: np.ndarray, PB: np.ndarray) -> float | None:
+def polytope_depth(PA: np.ndarray, PB: np.ndarray) -> float | None:
     """The penetration depth of the convex hulls of the points PA and PB (world): the distance
     from the origin to the boundary of their Minkowski difference, the hull of every PB_i - PA_j
     (qhull), 0 when they do not overlap; None when qhull cannot build it (a flat difference).
@@ -411,12 +411,12 @@ def _scene_shape(shape):
     return dispatch_shape(_SCENE_SHAPE, shape, "the validator's scene geometry")(shape)
 
 
-#: a scene shape's arguments of :func:`_fcl_shape` per kind (a box's size: full extents)
+#: a scene shape's arguments of :func:`fcl_shape` per kind (a box's size: full extents)
 _SCENE_SHAPE = {
-    "box": lambda shape: _fcl_shape("box", size=tuple(2 * s for s in shape.size)),
-    "sphere": lambda shape: _fcl_shape("sphere", radius=shape.radius),
-    "cylinder": lambda shape: _fcl_shape("cylinder", radius=shape.radius, length=shape.length),
-    "mesh": lambda shape: _fcl_shape("mesh", path=shape.mesh, scale=shape.scale),
+    "box": lambda shape: fcl_shape("box", size=tuple(2 * s for s in shape.size)),
+    "sphere": lambda shape: fcl_shape("sphere", radius=shape.radius),
+    "cylinder": lambda shape: fcl_shape("cylinder", radius=shape.radius, length=shape.length),
+    "mesh": lambda shape: fcl_shape("mesh", path=shape.mesh, scale=shape.scale),
 }
 
 

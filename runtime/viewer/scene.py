@@ -1,6 +1,6 @@
 """What the viewer draws: triangle meshes of the robot's visual elements and the scene's objects,
 and the world pose of every body at each plan state and along each straight motion
-(:class:`Poser`), from the validator's kinematics (:mod:`.validate_kinematics`).
+(:class:`Poser`), from the validator's kinematics (:mod:`tmpc.runtime.validate.kinematics`).
 
 Meshes are loaded with trimesh (COLLADA files keep one part per material and its colour), kept in
 the cache as arrays (a warm page imports no trimesh), and decimated by vertex clustering
@@ -26,8 +26,8 @@ from tmpc.runtime.plans import pose_matrix
 from tmpc.runtime.validate import (
     Kinematics,
     full_joint_values,
+    quat_from_matrix,
     quat_matrix,
-    quat_of,
     read_urdf,
     scene_defaults,
     straight_motion,
@@ -122,7 +122,7 @@ def _decode(path: Path, scale) -> list[TriMesh]:
 def _cached(key: list, data: bytes, make) -> list[TriMesh]:
     """``make()``'s meshes through the cache (``viewer/``, npz, no pickle), by ``key`` (JSON),
     ``data`` (a mesh file's contents), trimesh's version and tmpc's code: a warm page imports
-    no trimesh (~0.4-0.8 s, 2026-12-04). An entry that cannot be read is made again; nothing
+    no trimesh. An entry that cannot be read is made again; nothing
     made (a file trimesh could not read: COLLADA without pycollada, say) is not kept."""
     h = hashlib.sha256(json.dumps([key, code_digest(), package_version("trimesh")]).encode())
     h.update(hashlib.sha256(data).digest())
@@ -438,7 +438,7 @@ def _blend(A: np.ndarray, B: np.ndarray, a: float) -> np.ndarray:
     """Pose between A and B: translation linear, rotation along the shortest arc."""
     if np.allclose(A, B):
         return A
-    qa, qb = quat_of(A[:3, :3]), quat_of(B[:3, :3])
+    qa, qb = quat_from_matrix(A[:3, :3]), quat_from_matrix(B[:3, :3])
     if qa @ qb < 0:
         qb = -qb
     q = (1 - a) * qa + a * qb

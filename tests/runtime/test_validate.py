@@ -652,7 +652,7 @@ def _box_pd(RA, tA, hA, RB, tB, hB) -> float:
 def test_polytope_depth_is_exact_on_boxes():
     """The validator's exact depth (qhull of the Minkowski difference) against the separating
     axis theorem on 300 random overlapping box pairs."""
-    from tmpc.runtime.validate.collision import _polytope_depth
+    from tmpc.runtime.validate.collision import polytope_depth
     rng = np.random.default_rng(3)
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
     seen = 0
@@ -661,7 +661,7 @@ def test_polytope_depth_is_exact_on_boxes():
         RA, RB = _rotation(rng), _rotation(rng)
         tA, tB = rng.uniform(-0.1, 0.1, 3), rng.uniform(-0.1, 0.1, 3) + rng.normal(size=3) * 0.2
         ref = _box_pd(RA, tA, hA, RB, tB, hB)
-        got = _polytope_depth(corners * hA @ RA.T + tA, corners * hB @ RB.T + tB)
+        got = polytope_depth(corners * hA @ RA.T + tA, corners * hB @ RB.T + tB)
         assert got == pytest.approx(ref, abs=1e-9)
         seen += ref > 0
     assert seen > 100
@@ -675,7 +675,7 @@ def test_a_depth_fcl_overestimates_is_confirmed_exactly(tmp_path):
     import fcl
     import trimesh
 
-    from tmpc.runtime.validate.collision import Checker, _fcl_shape, _Geom
+    from tmpc.runtime.validate.collision import Checker, fcl_shape, Geom
     box = tmp_path / "stick.stl"
     trimesh.creation.box(extents=(0.04, 0.04, 0.2)).export(box)
     checker = Checker.__new__(Checker)
@@ -683,8 +683,8 @@ def test_a_depth_fcl_overestimates_is_confirmed_exactly(tmp_path):
     checker._req = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
     geoms = []
     for _ in range(2):
-        g, hull, c, h, pts = _fcl_shape("mesh", path=box)
-        geoms.append(_Geom(0, np.eye(4), fcl.CollisionObject(g), fcl.CollisionObject(hull), c, h,
+        g, hull, c, h, pts = fcl_shape("mesh", path=box)
+        geoms.append(Geom(0, np.eye(4), fcl.CollisionObject(g), fcl.CollisionObject(hull), c, h,
                            pts))
     rng = np.random.default_rng(0)
     half = np.array([0.02, 0.02, 0.1])
