@@ -29,6 +29,7 @@ import numpy as np
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import geo_atoms
 from tmpc.compiler.kernels import state_inputs
+from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
 from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
@@ -182,6 +183,9 @@ class PlanningProblem:
         s0 = initial_state(world.scene, self.model)
         self.q0 = np.asarray(s0.q, float)
         self.initial = self.make_mode(0, self.ground.init, s0.poses, s0.held)
+        #: what planning tried, for "why no plan" (:func:`tmpc.runtime.explain.explain`)
+        self.evidence = Evidence()
+        self.evidence.reached(self.ground.init)
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
         self.wraps = np.asarray(self.model.wraps, bool)
         self._projectors: dict[str, tuple] = {}
@@ -316,6 +320,7 @@ class PlanningProblem:
                     state = grasp(state, self.model, eff.parent, eff.child, frames)
                 elif eff.child in state.held:
                     state = release(state, self.model, eff.child, frames)
+        self.evidence.reached(sym, action)
         return self.make_mode(mode_id, sym, state.poses, state.held, mode.id, action)
 
     # ---- geometry --------------------------------------------------------------------------------
@@ -391,7 +396,10 @@ class PlanningProblem:
         self.timers.projection += time.perf_counter() - t
         if not out[0]:
             return (np.zeros((0, len(self.lower))), np.zeros(0, bool), np.zeros(0))
-        return tuple(np.concatenate(acc) for acc in out)
+        result = tuple(np.concatenate(acc) for acc in out)
+        if iterations != 0:
+            self.evidence.projected(mode, action, *result)
+        return result
 
     def distances(self, mode: Mode, action, Q: np.ndarray) -> np.ndarray:
         """The unsatisfaction distance (B,) of ``action``'s geometric precondition (the goal's

@@ -9,9 +9,11 @@ needs it:
 
 * each such predicate ``P`` gets a discrete *symbol* predicate ``P@achieved`` (same parameters);
 * every action that releases an object ``?x`` (deletes a kinematic atom whose child is ``?x``)
-  gets one *variant* per parameter slot of ``P`` that ``?x`` can fill: the action's parameters
-  plus fresh ones for ``P``'s other slots, its precondition conjoined with ``P`` (so the release
-  is sampled where ``P`` holds) and its effect with the symbol;
+  and already requires ``P`` of ``?x`` (``place ?c ?s`` requiring ``(on ?c ?s)``) adds the
+  symbol of that literal; one that does not gets one *variant* per parameter slot of ``P`` that
+  ``?x`` can fill: the action's parameters plus fresh ones for ``P``'s other slots, its
+  precondition conjoined with ``P`` (so the release is sampled where ``P`` holds) and its effect
+  with the symbol;
 * every action that grasps ``?x`` (adds such a kinematic atom) deletes every symbol naming ``?x``
   (the object leaves the pose that made it true);
 * the goal atom ``(P o...)`` becomes ``(and (P@achieved o...) (P o...))``: the geometry is still
@@ -100,6 +102,12 @@ def with_geometric_symbols(program: CheckedProgram, movable: set[str],
         actions.append(_with_effects(act, deletes) if deletes else act)
         for x in released:
             for k, sym in symbols.items():
+                own = _own_literals(actions[-1], x, preds[k])
+                if own:
+                    # the release already requires P of its object: it achieves it itself
+                    actions[-1] = _with_effects(actions[-1], [
+                        A.AddEffect(A.Atom(sym.name, lit.args)) for lit in own])
+                    continue
                 actions += _variants(act, x, preds[k], sym, scope)
     domain = replace(program.domain, predicates=program.domain.predicates
                      + tuple(symbols.values()), actions=tuple(actions))
@@ -190,6 +198,13 @@ def _forget(sym: A.PredicateDecl, pred: A.PredicateDecl, x: A.Typed, act: A.Acti
 def _with_effects(act: A.Action, effects: list) -> A.Action:
     parts = (act.effect,) if act.effect is not None else ()
     return replace(act, effect=A.AndEffect(parts + tuple(effects)))
+
+
+def _own_literals(act: A.Action, x: A.Typed, pred: A.PredicateDecl) -> list[A.Atom]:
+    """Positive top-level literals of ``pred`` in ``act``'s precondition that name ``x``."""
+    return [lit for lit in _conjuncts(act.precondition) if isinstance(lit, A.Atom)
+            and lit.pred.key == pred.name.key
+            and any(isinstance(t, A.Var) and t.name.key == x.name.key for t in lit.args)]
 
 
 def _variants(act: A.Action, x: A.Typed, pred: A.PredicateDecl, sym: A.PredicateDecl, scope):

@@ -1,7 +1,7 @@
 ; Stack cubes with a Panda, the goal written with the geometric predicate itself (docs/tutorial.md).
 (define (domain tower)
   (:requirements :strips :typing :tmpc)
-  (:types surface gripper cube - surface)
+  (:types surface gripper - object cube - surface)
   (:include "tmpc/geometry")
   (:predicates
     (free ?g - gripper)
@@ -15,7 +15,8 @@
     :parameters (?g - gripper ?c - cube)
     :precondition (and (free ?g) (reach ?g ?c))
     :effect (and (holding ?g ?c) (not (free ?g))))
+  ; put the cube down so that it rests on ?s: the goal's `on` atoms are achieved here
   (:action place
-    :parameters (?g - gripper ?c - cube)
-    :precondition (holding ?g ?c)
+    :parameters (?g - gripper ?c - cube ?s - surface)
+    :precondition (and (holding ?g ?c) (on ?c ?s))
     :effect (and (free ?g) (not (holding ?g ?c)))))

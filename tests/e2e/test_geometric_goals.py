@@ -37,14 +37,50 @@ def test_goal_atoms_over_movable_objects_become_symbols(tower_world):
     goal_ids = set(gp.goal.pos)
     assert {gp.atom_id(f"on{SYMBOL}", "c", "b"), gp.atom_id(f"on{SYMBOL}", "b", "a")} <= goal_ids
     achievers = [a for a in gp.actions if a.add_mask >> gp.atom_id(f"on{SYMBOL}", "c", "b") & 1]
-    # releasing c onto b, or b under c: either release can make the relation hold
-    assert {a.name for a in achievers} == {"(place panda_hand_tcp c)", "(place panda_hand_tcp b)"}
-    assert all(any(g.predicate == "on" and g.args == ("c", "b") for g in a.pre_geometric)
-               for a in achievers)
+    # `place` requires (on ?c ?s) of the cube it releases: placing c on b achieves it
+    assert [a.name for a in achievers] == ["(place panda_hand_tcp c b)"]
+    assert any(g.predicate == "on" and g.args == ("c", "b") for g in achievers[0].pre_geometric)
     # a grasp of b forgets every symbol that names b
     pick_b = gp.find_action("pick", "panda_hand_tcp", "b")
     assert gp.atom_id(f"on{SYMBOL}", "c", "b") in pick_b.dels
     assert gp.atom_id(f"on{SYMBOL}", "b", "a") in pick_b.dels
+
+
+BARE_PLACE = """  (:action place
+    :parameters (?g - gripper ?c - cube)
+    :precondition (holding ?g ?c)
+    :effect (and (free ?g) (not (holding ?g ?c)))))"""
+
+
+@pytest.fixture(scope="module")
+def bare_tower(tmp_path_factory):
+    """The tower with a `place` that names no surface: its releases get variants."""
+    import re
+    import shutil
+    from tmpc.compiler.artifact import open_world
+    d = tmp_path_factory.mktemp("bare") / "tower"
+    shutil.copytree(EXAMPLES / "tower", d)
+    dom = d / "domain.pddl"
+    text = dom.read_text()
+    text = re.sub(r"  ; put the cube down.*", BARE_PLACE, text, flags=re.S)
+    dom.write_text(text)
+    return open_world(d / "tower.toml")
+
+
+def test_a_release_without_the_predicate_gets_variants(bare_tower):
+    from tmpc.compiler.compile import compile_world
+    gp = compile_world(bare_tower).ground
+    achievers = [a for a in gp.actions if a.add_mask >> gp.atom_id(f"on{SYMBOL}", "c", "b") & 1]
+    # releasing c onto b, or b under c: either release can make the relation hold; each is
+    # a variant with (on c b) in its precondition, shown as the release it was made from
+    assert {a.name for a in achievers} == {"(place panda_hand_tcp c)", "(place panda_hand_tcp b)"}
+    assert all(a.shown is not None and "~" in a.schema for a in achievers)
+    assert all(any(g.predicate == "on" and g.args == ("c", "b") for g in a.pre_geometric)
+               for a in achievers)
+
+
+def test_variants_plan_and_validate(bare_tower):
+    _plan_and_validate(bare_tower, "optimal")
 
 
 def test_no_symbols_without_a_geometric_goal(tabletop_world):
@@ -62,6 +98,11 @@ def test_atoms_naming_a_robot_frame_are_left_to_the_goal_projection(tower_world)
 
 @pytest.mark.parametrize("name", sorted(PLANNERS))
 def test_tower_with_a_geometric_goal_plans_and_validates(name, tower_world):
+    _plan_and_validate(tower_world, name)
+
+
+def _plan_and_validate(world, name):
+    tower_world = world
     from tmpc.runtime.plans import parse_plan, plan_document
     from tmpc.runtime.solve import plan_problem
     from tmpc.runtime.validate import validate_plan
@@ -71,8 +112,9 @@ def test_tower_with_a_geometric_goal_plans_and_validates(name, tower_world):
     doc = plan_document(problem, result, planner=name, seed=0, input_path=str(TOWER),
                         setup_seconds=0.0)
     # only the action names of the domain, with their own arguments
-    assert all(a.split()[0] in ("(pick", "(place") and len(a.split()) == 3
-               for a in doc["actions"]), doc["actions"]
+    arity = {k: len(a.params) for k, a in world.program.scope.actions.items()}
+    assert all(len(a.split()) - 1 == arity[a.split()[0][1:]] for a in doc["actions"]), \
+        doc["actions"]
     # no symbol leaks into the plan's states
     assert not any(SYMBOL in atom for s in doc["states"] for atom in s["mode"]["atoms"])
     plan = parse_plan(SourceFile("<plan>", json.dumps(doc)))
