@@ -157,12 +157,31 @@ def source_files(world) -> list[Path]:
 
 
 def source_key(world, options) -> str:
-    """The cache key of a run of ``world``: its files' contents, tmpc and JAX, the options."""
+    """The cache key of a run of ``world``: what its program and scene mean, the contents of
+    its other files, tmpc and JAX, the options. The domain, problem and scene count by meaning
+    (their parsed, span-free form), so an edit of comments or layout reuses the artifact: a run
+    reads its program from the files and only the kernels, lifted functions of that meaning,
+    from the artifact."""
     h = hashlib.sha256()
+    by_meaning = _meaning_keyed(world)
     for f in source_files(world):
+        if f.resolve() in by_meaning:
+            continue
         h.update(str(f.resolve()).encode() + b"\0" + hashlib.sha256(f.read_bytes()).digest())
+    if by_meaning:
+        prog = world.program
+        h.update(repr((prog.domain, prog.problem, prog.modules, world.scene)).encode())
     h.update(json.dumps([code_digest(), package_version("jax"), repr(options)]).encode())
     return h.hexdigest()[:32]
+
+
+def _meaning_keyed(world) -> set[Path]:
+    """The files :func:`source_key` hashes by meaning: the checked program's sources and the
+    scene file (none for a world without a program)."""
+    if world.program is None or world.config is None:
+        return set()
+    return {Path(p).resolve() for p in (world.config.domain, world.config.problem,
+                                        world.scene.path) if p}
 
 
 def run_artifact(key: str) -> Path:

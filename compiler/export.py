@@ -258,13 +258,14 @@ def _smt_section(members: _Members, prog) -> dict:
                           for name, text in sorted(templates.items())}}
 
 
-def open_for_run(path, register=None, on_compile=None, progress=None):
+def open_for_run(path, register=None, on_compile=None, progress=None, before_compile=None):
     """The world ``tmpc run`` plans in, and how its kernels were had: an artifact as it is
     (``"artifact"``); a run configuration through the artifact cache (:mod:`tmpc.compiler.cache`):
     ``"cache"`` when an artifact of exactly these sources is there, else ``"compiled"`` after
     compiling one into the cache (``on_compile(path)`` is called first: it takes a while;
     ``progress`` as :func:`build_artifact`'s). A damaged cache entry is compiled again, with a
-    warning."""
+    warning. ``before_compile(world)`` is called before compiling (it may raise: a run's setup
+    errors are found before the compile's seconds are spent)."""
     if is_artifact(path):
         return open_world(path), "artifact"
     world = load_world(path)
@@ -280,6 +281,8 @@ def open_for_run(path, register=None, on_compile=None, progress=None):
             warnings.warn(f"the cached artifact {art} is damaged ({exc.diagnostics[0].message}); "
                           "compiling it again", stacklevel=2)
             art.unlink(missing_ok=True)
+    if before_compile is not None:
+        before_compile(world)
     art.parent.mkdir(parents=True, exist_ok=True)
     if on_compile is not None:
         on_compile(art)

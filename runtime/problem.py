@@ -29,6 +29,8 @@ import numpy as np
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import geo_atoms
 from tmpc.compiler.kernels import state_inputs
+from tmpc.runtime.explain import Evidence
+from tmpc.runtime.setup_checks import SetupChecks
 from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
@@ -175,11 +177,15 @@ class PlanningProblem:
         self.timers = Timers()
         self.iterations = iterations
         self.ground = self.compiled.ground
+        self.setup_checks = SetupChecks(world, self.ground, self.model)
         self._check_objects()
         self.tolerance = collision_tolerance(world.config) if tolerance is None else tolerance
         s0 = initial_state(world.scene, self.model)
         self.q0 = np.asarray(s0.q, float)
         self.initial = self.make_mode(0, self.ground.init, s0.poses, s0.held)
+        #: what planning tried, for "why no plan" (:func:`tmpc.runtime.explain.explain`)
+        self.evidence = Evidence()
+        self.evidence.reached(self.ground.init)
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
         self.wraps = np.asarray(self.model.wraps, bool)
         self._projectors: dict[str, tuple] = {}
@@ -198,55 +204,25 @@ class PlanningProblem:
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
-        """Every object a geometric atom names must be a scene object or a robot frame."""
-        world = self.compiled.tables
-        missing = sorted({a for g in self.ground.geometric for a in g.args
-                          if world.entity(a) is None})
-        if missing:
-            prob = self.world.program.problem
-            raise InputError(error(
-                "E822", (f"objects {', '.join(missing)} of the problem appear in geometric "
-                         "atoms but are neither scene objects nor robot frames"
-                         if len(missing) > 1 else
-                         f"object {missing[0]} of the problem appears in geometric atoms but is "
-                         "neither a scene object nor a robot frame"),
-                prob.span, "add them to the scene, or check the spelling against the scene file"),
-                self.world.files)
+        """The setup errors that need no collision world (:mod:`tmpc.runtime.setup_checks`):
+        unknown objects (E822), missing support regions (E581), static objects held (E566)."""
+        self._setup_error(self.setup_checks.objects() + self.setup_checks.support_regions()
+                          + self.setup_checks.static_holds())
+
+    def _setup_error(self, diagnostics) -> None:
+        if diagnostics:
+            raise InputError(diagnostics, self.world.files)
 
     def check_start(self) -> None:
         """The start must be within the joint limits (E829, before any collision check: a
         joint at 99 rad is not "in collision") and collision-free; name the colliding pairs
         otherwise (E823)."""
-        # the scene's values as written (the model clamps its start into the limits)
-        raw = dict(self.world.scene.robot.joint_values) if self.world.scene.robot else {}
-        raw.update(zip(self.model.q_names[:3], self.q0[:3]) if self.model.mobile_base else ())
-        out = [(name, float(raw[name]), float(lo), float(hi)) for name, lo, hi, w in
-               zip(self.model.q_names, self.lower, self.upper, self.wraps)
-               if name in raw and not w and not (lo - 1e-9 <= raw[name] <= hi + 1e-9)]
-        if out:
-            name, v, lo, hi = out[0]
-            more = f" (and {len(out) - 1} more)" if len(out) > 1 else ""
-            raise InputError(error("E829", f"the start has `{name}` = {v:g}, outside its limits "
-                                   f"[{lo:g}, {hi:g}]{more}", None,
-                                   f"set it within the limits in {self.world.scene.path} (the "
-                                   "scene's start joint values; a mobile base's x and y stay "
-                                   "within the scene bounds)"))
-        rep = self.collision.check(self.q0, poses=self.initial.poses, attached=self.initial.held)
-        if not rep.valid:
-            pairs = ", ".join(f"{a} with {b} ({d * 1000:.1f} mm)" for a, b, d in rep.pairs[:5])
-            raise InputError(error("E823", f"the start state is in collision: {pairs}",
-                                   None, "move the robot or the objects in the scene, or "
-                                   "allow deeper contact: a native manifest's [planner] "
-                                   f"collision_tolerance (now {self.tolerance} m)"))
+        self._setup_error(self.setup_checks.start_limits(self.q0))
+        self._setup_error(self.setup_checks.start_collisions(
+            self.collision, self.q0, self.initial.poses, self.initial.held, self.tolerance))
 
     def check_goal_reachable(self) -> None:
-        if not self.ground.goal_relaxed_reachable:
-            goal = self.world.program.problem.goal
-            raise InputError(error(
-                "E824", "the goal is unreachable: even ignoring delete effects and geometry, no "
-                "sequence of actions makes it true", getattr(goal, "span", None),
-                "check the goal atoms and the actions that add them (`tmpc plan` on the domain "
-                "and problem shows the symbolic side alone)"), self.world.files)
+        self._setup_error(self.setup_checks.goal())
 
     def start_warm_up(self, rng: np.random.Generator, also=()) -> None:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is
@@ -339,6 +315,7 @@ class PlanningProblem:
                     state = grasp(state, self.model, eff.parent, eff.child, frames)
                 elif eff.child in state.held:
                     state = release(state, self.model, eff.child, frames)
+        self.evidence.reached(sym, action)
         return self.make_mode(mode_id, sym, state.poses, state.held, mode.id, action)
 
     # ---- geometry --------------------------------------------------------------------------------
@@ -414,7 +391,10 @@ class PlanningProblem:
         self.timers.projection += time.perf_counter() - t
         if not out[0]:
             return (np.zeros((0, len(self.lower))), np.zeros(0, bool), np.zeros(0))
-        return tuple(np.concatenate(acc) for acc in out)
+        result = tuple(np.concatenate(acc) for acc in out)
+        if iterations != 0:
+            self.evidence.projected(mode, action, *result)
+        return result
 
     def distances(self, mode: Mode, action, Q: np.ndarray) -> np.ndarray:
         """The unsatisfaction distance (B,) of ``action``'s geometric precondition (the goal's

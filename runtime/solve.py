@@ -15,6 +15,7 @@ from tmpc.runtime.collision import prepare_kernel
 from tmpc.runtime.interrupts import interruptible
 from tmpc.runtime.planners import make_planner
 from tmpc.runtime.problem import PlanningProblem, register_run_kernels
+from tmpc.runtime.setup_checks import raise_setup_errors
 
 
 def open_input(path, on_compile=None, progress=None) -> tuple[World, dict]:
@@ -24,7 +25,7 @@ def open_input(path, on_compile=None, progress=None) -> tuple[World, dict]:
     hears the compile's phases."""
     t = time.perf_counter()
     world, how = open_for_run(path, register_run_kernels, on_compile=on_compile,
-                              progress=progress)
+                              progress=progress, before_compile=raise_setup_errors)
     spent = time.perf_counter() - t
     return world, {"kernels": how, ("compile" if how == "compiled" else "load"): spent}
 

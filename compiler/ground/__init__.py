@@ -26,6 +26,10 @@ from tmpc.compiler.ground.problem import GroundAction as GroundAction
 from tmpc.compiler.ground.problem import GroundingError as GroundingError
 from tmpc.compiler.ground.problem import GroundProblem as GroundProblem
 from tmpc.compiler.ground.problem import bits as bits
+from tmpc.compiler.ground.symbols import SYMBOL as SYMBOL
+from tmpc.compiler.ground.symbols import is_symbol as is_symbol
+from tmpc.compiler.ground.symbols import shown_as as shown_as
+from tmpc.compiler.ground.symbols import with_geometric_symbols as with_geometric_symbols
 
 
 def ground(program, max_bindings: int = MAX_BINDINGS) -> GroundProblem:

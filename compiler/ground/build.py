@@ -63,6 +63,7 @@ from tmpc.compiler.ground.problem import (
     grounding_error,
 )
 from tmpc.compiler.ground.reach import Relaxed
+from tmpc.compiler.ground.symbols import shown_as
 from tmpc.lang import ast as A
 from tmpc.lang.checker import CheckedProgram
 
@@ -453,10 +454,13 @@ class _Builder:
         dels -= adds
         cost = sum(self.cost(n, c) for n in c.schema.costs) if self.uses_costs else 1.0
         decl = c.schema.decl
-        return GroundAction(index, decl.name.text, tuple(self.otext[o] for o in c.binding),
+        args = tuple(self.otext[o] for o in c.binding)
+        shown = shown_as(decl.name.text, args, self.prog)
+        return GroundAction(index, decl.name.text, args,
                             Condition.of(pre), frozenset(adds), frozenset(dels),
                             tuple(conditional), _kinematic(adds, dels, kin), cost,
-                            _mask(adds), _mask(dels), decl.span)
+                            _mask(adds), _mask(dels), decl.span,
+                            None if shown == (decl.name.text, args) else shown)
 
     def cost(self, n: LNumEffect, c: _Candidate) -> float:
         v = self.number(n.value, c.binding)

@@ -29,7 +29,7 @@ decided by an optional ``geo(predicate, args) -> bool``; without one they count 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Iterable, Iterator, NamedTuple
 
 from tmpc.compiler.ground.derived import Axiom, DerivedEvaluator
@@ -110,10 +110,14 @@ class GroundAction:
     add_mask: int = field(repr=False)
     del_mask: int = field(repr=False)
     span: Span | None = field(default=None, repr=False, compare=False)
+    #: how plans name it, ``(schema, args)``, when that differs: a variant made for a geometric
+    #: symbol (:mod:`tmpc.compiler.ground.symbols`) is shown as the action it was made from
+    shown: tuple[str, tuple[str, ...]] | None = field(default=None, repr=False, compare=False)
 
     @property
     def name(self) -> str:
-        return "(" + " ".join((self.schema, *self.args)) + ")"
+        schema, args = self.shown or (self.schema, self.args)
+        return "(" + " ".join((schema, *args)) + ")"
 
     @property
     def precondition(self) -> GFormula:
@@ -163,6 +167,10 @@ class GroundProblem:
     stats: GroundStats
     _index: dict[tuple[str, tuple[str, ...]], int] = field(repr=False, compare=False)
     _derived: DerivedEvaluator = field(repr=False, compare=False)
+
+    def with_init(self, init: int) -> "GroundProblem":
+        """This problem from the initial state ``init`` (derived atoms recomputed)."""
+        return replace(self, init=self.evaluate_derived(init))
 
     # ---- names ------------------------------------------------------------------------------
     def atom_name(self, atom_id: int) -> str:

@@ -16,6 +16,8 @@ def run_check(args) -> int:
     report = check_paths(args.files)
     if report.ok:
         report.diagnostics.extend(_traced_lua(report))
+    if report.ok:
+        report.diagnostics.extend(_setup_errors(report))
     if args.static and report.ok:
         # SAT/relaxation checks (W610-W613): opt-in, because they ground the problem and load
         # Z3, and plain `tmpc check` stays light enough for an editor on every keystroke; so
@@ -63,6 +65,28 @@ def _traced_lua(report) -> list:
             continue
         report.workspace.files.update(module.files)
         out.extend(result.diagnostics)
+    return out
+
+
+def _setup_errors(report) -> list:
+    """What `tmpc run`'s setup would reject in each run configuration (:mod:`tmpc.runtime.
+    setup_checks`: unknown objects, missing support regions, static objects held, an unreachable
+    goal, the start's limits and collisions), by grounding, the robot's kinematics and fcl; no
+    kernel is compiled."""
+    out = []
+    if not report.workspace.configs:
+        return out
+    from tmpc.lang.inputs import load_world
+    from tmpc.runtime.setup_checks import setup_diagnostics
+    for config in report.workspace.configs:
+        try:
+            world = load_world(config.path)
+        except TmpcError as exc:
+            report.workspace.files.update(exc.files)
+            out.extend(exc.diagnostics)
+            continue
+        report.workspace.files.update(world.files)
+        out.extend(setup_diagnostics(world))
     return out
 
 

@@ -218,6 +218,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "(default: the configuration's output, if any)")
         p.add_argument("--html", metavar="PLAN.html", help="write the animated viewer here")
         p.add_argument("--png", metavar="PLAN.png", help="write a snapshot here")
+        p.add_argument("--explain", metavar="FILE.json", help="write why no plan was found "
+                       "(the culprits, in order of blame; docs/planning.md) as JSON here")
         p.add_argument("--legacy-output", choices=("planet", "tmit-star"),
                        help="write the bare state array of that planner instead of tmpc-plan/1")
         p.add_argument("--heuristic-bias", type=PROBABILITY, default=None,

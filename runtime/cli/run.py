@@ -17,6 +17,7 @@ from tmpc.lang.diagnostics import InputError, TmpcError, error
 from tmpc.lang.fileio import unwritable
 from tmpc.lang.world import is_run_config, load_config
 from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.explain import explain, summary_lines
 from tmpc.runtime.interrupts import writing
 from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
 from tmpc.runtime.solve import open_input, plan_problem
@@ -28,6 +29,7 @@ DEFAULT_TIME_LIMIT = 120.0
 def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
     _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815"),
+                    (getattr(args, "explain", None), "E828"),
                     (None if args.output else _configured_output(args.input), "E828")])
     phases = None if args.quiet else SetupProgress(sys.stderr, sys.stderr.isatty())
     world, opened = open_input(args.input, on_compile=None if phases is None else phases.start,
@@ -60,9 +62,25 @@ def run_run(args, imports: float = 0.0) -> int:
         _write_outputs(args, problem, doc, output)
     split["output"] = time.perf_counter() - t
     _report(doc, result, setup)
+    _explain(args, problem, result)
     if args.verbose:
         _report_setup(split, result)
     return EXIT_OK if result.status == "solved" else EXIT_NOT_FOUND
+
+
+def _explain(args, problem, result) -> None:
+    """Without a plan, why (a few lines; the whole report with ``--explain FILE``)."""
+    path = getattr(args, "explain", None)
+    if result.status == "solved":
+        if path:
+            write_json_atomic(path, {"status": "solved", "summary": "solved", "culprits": []})
+        return
+    report = explain(problem, result.status)
+    for line in summary_lines(report):
+        sys.stderr.write(line + "\n")
+    if path:
+        write_json_atomic(path, report)
+        sys.stderr.write(f"wrote {path}\n")
 
 
 def _write_outputs(args, problem, doc, output) -> None:

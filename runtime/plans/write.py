@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tmpc.compiler.ground import is_symbol
 from tmpc.compiler.state import WorldState, state_to_json
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_text
@@ -23,7 +24,9 @@ FORMAT = "tmpc-plan/1"
 
 
 def action_text(action) -> str:
-    return "(" + " ".join((action.schema, *action.args)) + ")"
+    """An action as plans write it (a geometric symbol's variant as the action it was made
+    from)."""
+    return action.name
 
 
 def plan_states(problem, path) -> list[dict]:
@@ -36,7 +39,8 @@ def plan_states(problem, path) -> list[dict]:
         d = state_to_json(state, problem.model, fr)
         d.pop("mode", None)
         d["action"] = action_text(action) if action is not None else None
-        d["mode"] = {"atoms": ground.state_atoms(mode.sym),
+        d["mode"] = {"atoms": [a for a in ground.state_atoms(mode.sym)
+                               if not is_symbol(a[1:].split(" ", 1)[0].rstrip(")"))],
                      "held": {obj: frame for obj, (frame, _) in sorted(mode.held.items())}}
         out.append(d)
     return out
