@@ -66,10 +66,30 @@ def _read_mesh(path: Path, scale, owner: str) -> dict[str, np.ndarray]:
     if not ok:
         raise _unreadable(path, owner, mesh if isinstance(mesh, Exception) else "no triangles")
     v = np.asarray(mesh.vertices, float) * np.asarray(scale)
-    hull = trimesh.Trimesh(v, np.asarray(mesh.faces), process=False).convex_hull
+    try:
+        hull = trimesh.Trimesh(v, np.asarray(mesh.faces), process=False).convex_hull
+        hull_v, hull_f = np.asarray(hull.vertices, float), np.asarray(hull.faces, np.int64)
+    except Exception:  # noqa: BLE001 - qhull's errors: a flat mesh has no 3-D hull
+        hull_v, hull_f = _flat_hull(v)
+        if hull_v is None:
+            raise _unreadable(path, owner, "its triangles have no area") from None
     return {"vertices": v, "faces": np.asarray(mesh.faces, np.int64),
-            "hull_vertices": np.asarray(hull.vertices, float),
-            "hull_faces": np.asarray(hull.faces, np.int64)}
+            "hull_vertices": hull_v, "hull_faces": hull_f}
+
+
+def _flat_hull(v: np.ndarray):
+    """The convex hull of points in a plane (a flat mesh: a plate, one triangle): the 2-D hull
+    in that plane as a fan of triangles, vertices ``(k, 3)`` and faces ``(k - 2, 3)``; None
+    when the points are on a line."""
+    from scipy.spatial import ConvexHull
+    c = v.mean(axis=0)
+    _, sv, vt = np.linalg.svd(v - c, full_matrices=False)
+    if len(sv) < 2 or sv[1] <= 1e-12 * max(sv[0], 1.0):
+        return None, None
+    uv = (v - c) @ vt[:2].T
+    ring = v[ConvexHull(uv).vertices]
+    faces = np.array([[0, i, i + 1] for i in range(1, len(ring) - 1)], np.int64)
+    return ring, faces
 
 
 def _unreadable(path: Path, owner: str, why) -> SceneError:

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tmpc.compiler.ground import SYMBOL
+
 #: configurations kept per action (the best non-holding one, and this many holding ones)
 KEEP = 3
 
@@ -107,8 +109,7 @@ def explain(problem, status: str) -> dict:
         "configuration collided; the planner may need more time",
         "culprits": culprits,
         "task_plans": plans,
-        "reached_atoms": [a for a in ground.state_atoms(ev.reached_atoms)
-                          if not a.split()[0].rstrip(")").endswith("@achieved")],
+        "reached_atoms": ground.shown_atoms(ev.reached_atoms),
         "transitions": dict(ev.transitions),
         "projections": {("goal" if k is None else k): {"tried": a.tried, "held": a.held,
                                                        "best_distance": _num(a.best)}
@@ -129,7 +130,7 @@ def _unreached_goal_atoms(problem, ev: Evidence) -> list[dict]:
         atom = ground.atom_name(i)
         adders = [a.name for a in ground.actions
                   if a.add_mask >> i & 1 or any(ce.add_mask >> i & 1 for ce in a.conditional)]
-        shown = atom.replace("@achieved", "")
+        shown = atom.replace(SYMBOL, "")
         tried = [n for n in dict.fromkeys(adders) if ev.attempts.get(n) is not None]
         out.append({
             "kind": "goal-atom", "atom": shown,

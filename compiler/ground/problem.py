@@ -34,6 +34,7 @@ from typing import Iterable, Iterator, NamedTuple
 
 from tmpc.compiler.ground.derived import Axiom, DerivedEvaluator
 from tmpc.compiler.ground.formula import Condition, GeoLiteral, GeoOracle, GFormula, GGeo, holds
+from tmpc.compiler.ground.symbols import is_symbol
 from tmpc.lang.diagnostics import TmpcError, error
 from tmpc.lang.source import Span
 
@@ -180,6 +181,11 @@ class GroundProblem:
     def atom_id(self, predicate: str, *args: str) -> int | None:
         """The id of an atom (names compare without case), None if it is not a state atom."""
         return self._index.get((predicate.lower(), tuple(a.lower() for a in args)))
+
+    def shown_atoms(self, state: int) -> list[str]:
+        """:meth:`state_atoms` without geometric symbols (:mod:`tmpc.compiler.ground.symbols`):
+        the atoms plans and reports list."""
+        return [self.atom_name(i) for i in bits(state) if not is_symbol(self.atoms[i].predicate)]
 
     def state_atoms(self, state: int) -> list[str]:
         """Names of the atoms true in ``state``, in id order."""

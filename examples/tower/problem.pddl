@@ -2,5 +2,6 @@
 (define (problem abc)
   (:domain tower)
   (:objects panda_hand_tcp - gripper bench - surface a b c - cube)
-  (:init (free panda_hand_tcp))
+  (:init
+    (free panda_hand_tcp))
   (:goal (and (on c b) (on b a) (on a bench))))

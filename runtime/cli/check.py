@@ -16,8 +16,6 @@ def run_check(args) -> int:
     report = check_paths(args.files)
     if report.ok:
         report.diagnostics.extend(_traced_lua(report))
-    if report.ok:
-        report.diagnostics.extend(_setup_errors(report))
     if args.static and report.ok:
         # SAT/relaxation checks (W610-W613): opt-in, because they ground the problem and load
         # Z3, and plain `tmpc check` stays light enough for an editor on every keystroke; so
@@ -32,6 +30,8 @@ def run_check(args) -> int:
             for config in report.workspace.configs:
                 report.diagnostics.extend(geometric_checks(open_world(config.path),
                                                            args.geometry_budget))
+    if report.ok:
+        report.diagnostics.extend(_setup_errors(report))
     print_diagnostics(report.diagnostics, report.workspace.files, args.format)
     if args.format != "json":
         counts = summary(report.diagnostics)

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 
-from tmpc.compiler.ground import is_symbol
 from tmpc.compiler.state import WorldState, state_to_json
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_text
@@ -39,8 +38,7 @@ def plan_states(problem, path) -> list[dict]:
         d = state_to_json(state, problem.model, fr)
         d.pop("mode", None)
         d["action"] = action_text(action) if action is not None else None
-        d["mode"] = {"atoms": [a for a in ground.state_atoms(mode.sym)
-                               if not is_symbol(a[1:].split(" ", 1)[0].rstrip(")"))],
+        d["mode"] = {"atoms": ground.shown_atoms(mode.sym),
                      "held": {obj: frame for obj, (frame, _) in sorted(mode.held.items())}}
         out.append(d)
     return out

@@ -106,11 +106,16 @@ def test_a_run_from_the_cache_compiles_nothing(cache_dir, monkeypatch, tmp_path)
                                                          for k in kernels)
     problem, result, _ = plan_problem(world, seed=1, time_limit=60.0)
     assert result.status == "solved" and problem.setup["traced"] == []
-    # a changed source is a different key: compiled anew, not the stale artifact
+    # a comment is no change of meaning: the same artifact (issue S)
     monkeypatch.undo()
     monkeypatch.setenv("TMPC_CACHE_DIR", str(cache_dir))
     problem_file = src / "problem.pddl"
     problem_file.write_text(problem_file.read_text() + "\n; changed\n")
+    _, split = open_input(src / "tabletop.toml")
+    assert split["kernels"] == "cache"
+    # a changed meaning is a different key: compiled anew, not the stale artifact
+    problem_file.write_text(problem_file.read_text().replace("(on red_cube tray)",
+                                                             "(on red_cube bench)"))
     _, split = open_input(src / "tabletop.toml")
     assert split["kernels"] == "compiled"
 

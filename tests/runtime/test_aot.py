@@ -100,3 +100,12 @@ def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
     assert kernel(*kernel_loader.empty_pass_args()) == (0, 0, 0)
     with pytest.raises(TypeError):             # the JIT refusing too is a real error
         kernel_loader.fall_back(TypeError("again"))
+
+
+def test_the_collision_pass_builds_and_loads_from_an_empty_cache(kernel):
+    """The pass kernel built in a fresh cache folder loads (its build once linked numba's
+    reference counting by mistake, and every run fell back to the JIT with a warning)."""
+    from tmpc.runtime.collision.kernel import PASS_KERNEL
+    module, why = kernel.obtain(PASS_KERNEL)
+    assert why is None and module is not None, why
+    assert hasattr(module, "candidates") and hasattr(module, "kinematics")

@@ -132,7 +132,8 @@ def test_static_checks_are_what_check_static_adds(tabletop_copy, capsys):
     assert "geometric predicate `reach`" in unsat[0] and "action `pick`" in unsat[1]
     code, out = cli(capsys, "check", "--static", "--format", "json", "--budget", "30", config)
     shown = [d for d in json.loads(out) if d["code"].startswith("W61")]
-    assert code == 0
+    # and what a run would stop at: the goal is out of reach (E824, issue S)
+    assert code == 1 and "E824" in [d["code"] for d in json.loads(out)]
     assert [(d["code"], d["span"]["start"], d["span"]["end"], d["message"]) for d in shown] == \
         [(d["code"], d["start"], d["end"], d["message"]) for d in got]
     assert work.static_checks(config, budget=30.0) is got       # unchanged files: kept
