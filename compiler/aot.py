@@ -174,6 +174,10 @@ def build(kernel: Kernel) -> Path:
 
 
 if __name__ == "__main__":           # the child process of prepare()
+    # an empty machine-code cache of its own: numba's JIT cache holds the kernel's helpers
+    # compiled with reference counting (a JIT run's), and a build reusing them links symbols
+    # a module built without it cannot resolve
+    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="tmpc-aot-numba-")
     try:
         args = sys.argv[3:]
         build(Kernel(sys.argv[1], tuple(zip(args[::2], args[1::2])), sys.argv[2] == "nrt"))
@@ -182,3 +186,5 @@ if __name__ == "__main__":           # the child process of prepare()
         first = first.split(" If using conda")[0]        # numba's hint for conda users
         sys.stderr.write(f"\n{type(exc).__name__}: {first}\n")
         sys.exit(1)
+    finally:
+        shutil.rmtree(os.environ["NUMBA_CACHE_DIR"], ignore_errors=True)

@@ -225,16 +225,8 @@ def _tetrahedron(S, d):
     return 4
 
 
-def apart(*args):
-    """:func:`_apart` for a caller outside the compiled loops (tests, the JIT): a plain function,
-    so the ahead-of-time build sees only the kernel's own exports. (A module-level dispatcher
-    of this name made the build link numba's reference counting: ``NRT_MemInfo_call_dtor``
-    undefined when the module loads.)"""
-    return _apart(*args)
-
-
 @numba.njit(cache=True, nogil=True)
-def _apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
+def apart(pts, allp, sa, ea, va, wa, ra, fa, sb, eb, vb, wb, rb, fb, R, p, s,
            d0, d1, d2, S, d):
     """Whether two convex sets are certainly more than :data:`HULL_GAP` apart: A the hull of
     pts[sa:ea] (coordinates of frame fa; f < 0: the world) grown by radius ra, B likewise.
@@ -350,7 +342,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
                     continue
                 covers += 1
                 o = M + w
-                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and _apart(
+                if hull_s[m + 1] > hull_s[m] and hull_s[o + 1] > hull_s[o] and apart(
                         hull_p, all_p, hull_s[m], hull_s[m + 1], all_s[m], all_s[m + 1],
                         hull_r[m], fpos[m], hull_s[o], hull_s[o + 1], all_s[o], all_s[o + 1],
                         hull_r[o], -1, R, p, s, t0 - c[m, 0], t1 - c[m, 1], t2 - c[m, 2], S, dv):
@@ -411,7 +403,7 @@ def candidates(R, p, fpos, ball_c, ball_r, obb_c, obb_R, obb_h, cov, cov_r, ncov
             if not hit:
                 continue
             covers += 1
-            if hull_s[a + 1] > hull_s[a] and hull_s[b + 1] > hull_s[b] and _apart(
+            if hull_s[a + 1] > hull_s[a] and hull_s[b + 1] > hull_s[b] and apart(
                     hull_p, all_p, hull_s[a], hull_s[a + 1], all_s[a], all_s[a + 1], hull_r[a],
                     fa, hull_s[b], hull_s[b + 1], all_s[b], all_s[b + 1], hull_r[b], fb, R, p,
                     s, c[b, 0] - c[a, 0], c[b, 1] - c[a, 1], c[b, 2] - c[a, 2], S, dv):
