@@ -65,7 +65,7 @@ CASES = {
     "E824": (_both(_text("domain.pddl", "(free ?g - gripper)",
                          "(free ?g - gripper) (painted ?c - cube)"),
                    _text("problem.pddl", "(on a bench))", "(on a bench) (painted a))")),
-             ("problem.pddl", 6, 46)),
+             ("problem.pddl", 7, 46)),
     "E829": (_scene(_set(["robot", "joints", "panda_joint4"], 0.5)), None),
     # b put inside a
     "E823": (_scene(_set(["objects", 2, "pose", "translation"], [0.46, 0.2, 0.425])), None),
