@@ -273,7 +273,8 @@ _TABLE = (
     Code("E565", ERROR, "a collision mesh (robot link or scene object) that trimesh cannot load "
                         "or that has no triangles (`tmpc check`: a scene's mesh file that is "
                         "unreadable, empty, or an STL/OBJ/PLY file without triangles)"),
-    Code("E566", ERROR, "a collision check that moves or holds an object the scene marks static"),
+    Code("E566", ERROR, "an object the scene marks static that an action can hold, or that a "
+                        "collision check moves or holds"),
     Code("E567", ERROR, "a collision check naming an object the scene does not have (or one "
                         "without a shape)"),
     Code("E568", ERROR, "a held object's frame, or an `attach_allowed` link, that is no link or "
