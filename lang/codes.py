@@ -153,6 +153,8 @@ _TABLE = (
                           "cannot prove it; the smallest distance left is given)"),
 
     # Task and motion planning (`tmpc run`)
+    Code("E819", ERROR, "a geometric goal atom over objects that never move (no movable object, no "
+                        "robot frame) that is false in the scene: no plan can make it true"),
     Code("E820", ERROR, "`tmpc run` was given a scene alone (or a configuration without a "
                         "problem): it needs a domain and a problem"),
     Code("E821", ERROR, "the scene has no robot to plan for"),

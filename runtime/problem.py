@@ -222,7 +222,7 @@ class PlanningProblem:
             self.collision, self.q0, self.initial.poses, self.initial.held, self.tolerance))
 
     def check_goal_reachable(self) -> None:
-        self._setup_error(self.setup_checks.goal())
+        self._setup_error(self.setup_checks.goal() + self.setup_checks.fixed_goal_atoms())
 
     def start_warm_up(self, rng: np.random.Generator, also=()) -> None:
         """Begin :meth:`warm_up`'s projector calls on a background thread: loading a kernel is

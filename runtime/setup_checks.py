@@ -12,6 +12,8 @@ meets them (:data:`SETUP_CODES`):
   predicate, naming the object);
 * E566: an action the problem can apply holds an object the scene marks static (at the action);
 * E824: the goal is unreachable even ignoring deletes and geometry (at the goal);
+* E819: a geometric goal atom that can never change (it names no movable object and no robot
+  frame) is false in the scene (at the atom): evaluated once, by the numpy interpreter;
 * E829: a start joint outside its limits; E823: the start state in collision.
 """
 
@@ -30,9 +32,10 @@ from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.collision import CollisionWorld
+from tmpc.runtime.evaluate import Evaluator, Obj
 
 #: the setup errors, in the order a run meets them
-SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E829", "E823")
+SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E819", "E829", "E823")
 
 
 class SetupChecks:
@@ -190,10 +193,42 @@ class SetupChecks:
                       "move the robot or the objects in the scene, or allow deeper contact: a "
                       f"native manifest's [planner] collision_tolerance (now {tolerance} m)")]
 
+    def fixed_goal_atoms(self) -> list[Diagnostic]:
+        """E819: goal atoms over objects that never move, false in the scene's start."""
+        scene, scope = self.world.scene, self.scope
+        if self.model is None:
+            return []
+        s0 = initial_state(scene, self.model)
+        ev = Evaluator(scene, self.model, None, None, s0.poses, scope)
+        out = []
+        for lit in _conjuncts(self.program.problem.goal):
+            atom, positive = (lit.part, False) if isinstance(lit, A.Not) else (lit, True)
+            decl = scope.predicates.get(atom.pred.key) if isinstance(atom, A.Atom) else None
+            if decl is None or decl.kind is not A.Kind.GEOMETRIC or decl.semantics is None:
+                continue
+            names = [t.name.text for t in atom.args]
+            objs = [scene.object(n) for n in names]
+            if any(o is None or o.movable or o.parent is not None for o in objs):
+                continue          # a robot frame, a movable object, or one riding on something
+            env = {p.name.key: Obj(o.name) for p, o in zip(decl.params, objs)}
+            try:
+                holds = bool(ev.value(decl.semantics, env))
+            except TmpcError:
+                continue          # needs the robot's frames: the goal's projection decides it
+            if holds != positive:
+                text = _atom_text(atom)
+                out.append(error(
+                    "E819", f"the goal {'needs' if positive else 'excludes'} {text}, which is "
+                    f"{'false' if positive else 'true'} in the scene and names nothing that "
+                    "moves: no plan can change it", atom.span,
+                    "make one of its objects movable, or move them in the scene "
+                    f"({scene.path})"))
+        return out
+
     def symbolic(self) -> list[Diagnostic]:
         """The checks that need no collision world, in a run's order."""
         return (self.robot() or self.objects() + self.support_regions() + self.static_holds()
-                + self.goal())
+                + self.goal() + self.fixed_goal_atoms())
 
 
 def setup_diagnostics(world) -> list[Diagnostic]:

@@ -66,6 +66,18 @@ CASES = {
                          "(free ?g - gripper) (painted ?c - cube)"),
                    _text("problem.pddl", "(on a bench))", "(on a bench) (painted a))")),
              ("problem.pddl", 7, 46)),
+    # a goal atom over two static surfaces, false in the scene
+    "E819": (_both(_text("domain.pddl", "(free ?g - gripper)",
+                         "(free ?g - gripper) (above ?s - surface ?t - surface "
+                         ":semantics (> (z ?s) (z ?t)))"),
+                   _text("problem.pddl", "bench - surface", "bench shelf - surface"),
+                   _text("problem.pddl", "(on a bench))", "(on a bench) (above bench shelf))"),
+                   _scene(lambda data: data["objects"].append({
+                       "name": "shelf", "pose": {"translation": [0.0, 0.8, 1.0],
+                                                 "rotation": [0, 0, 0, 1]},
+                       "shape": {"type": "box", "half_extents": [0.2, 0.1, 0.02]},
+                       "support": {"lower": [-0.15, -0.08, 0.02], "upper": [0.15, 0.08, 0.1]}}))),
+             ("problem.pddl", 7, 46)),
     "E829": (_scene(_set(["robot", "joints", "panda_joint4"], 0.5)), None),
     # b put inside a
     "E823": (_scene(_set(["objects", 2, "pose", "translation"], [0.46, 0.2, 0.425])), None),
@@ -96,6 +108,7 @@ def test_check_reports_what_run_rejects_at_the_same_place(tmp_path, code):
     check = run_tmpc("check", d / "tower.toml")
     assert check.returncode == 1, check.stderr
     assert f"error[{code}]" in check.stderr + check.stdout, check.stderr
+    assert check.stderr.count("error[") == 1, check.stderr      # that error alone
     where = CASES[code][1]
     if where is not None:
         assert _located(check.stderr + check.stdout, code) == where, check.stderr
