@@ -86,6 +86,8 @@ def page_data(world, plan, title: str) -> dict:
             "frames": {"count": len(s.times), "t": _b64(np.asarray(s.times, "<f4")),
                        "pos": _b64(pos), "rot": _b64(rot)},
             "states": s.states, "bounds": bounds, "focus": _focus(P),
+            "labels": [{"node": poser.object_nodes[o.name], "name": o.name}
+                       for o in world.scene.objects if o.movable and o.name in poser.object_nodes],
             "yaw": round(_heading0(poser, plan) + CAMERA_YAW, 4)}
 
 
@@ -138,7 +140,9 @@ position:relative;height:34px}#slider{width:100%;margin:0;position:absolute;top:
 .tick{position:absolute;top:0;width:2px;height:14px;background:#c33;cursor:pointer}
 .tick:hover::after{content:attr(data-label);position:absolute;bottom:16px;left:-4px;
 white-space:nowrap;background:#223;color:#fff;padding:2px 6px;border-radius:4px;font-size:12px}
-#help{position:fixed;right:12px;top:10px;font-size:12px;color:#556;text-align:right}"""
+#help{position:fixed;right:12px;top:10px;font-size:12px;color:#556;text-align:right}
+.objlabel{position:fixed;transform:translate(24px,-50%);pointer-events:none;font-size:12px;
+background:rgba(255,255,255,.8);padding:0 4px;border-radius:3px;white-space:nowrap}"""
 
 _UI = """<div id="hud"><h1>{title}</h1><div id="label"></div></div>
 <div id="help">drag: orbit &middot; shift/right-drag: pan &middot; wheel: zoom<br>space: play/pause

@@ -224,6 +224,35 @@ _SHAPE_MESHES = {
 }
 
 
+#: colours of movable objects whose names name no colour, in scene order (distinct hues)
+PALETTE = ((0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
+           (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.74, 0.74, 0.13),
+           (0.09, 0.75, 0.81), (0.5, 0.5, 0.5))
+
+
+def object_colors(scene) -> dict[str, tuple[float, float, float]]:
+    """A colour per scene object: a name with a colour word keeps that colour (tmit-star's
+    `blue_stick_1`), other movable objects take the next colour of :data:`PALETTE`, so each
+    can be told apart; static ones are wood or grey."""
+    out, k = {}, 0
+    for o in scene.objects:
+        named = _named_color(o.name)
+        if named is None and o.movable:
+            named, k = PALETTE[k % len(PALETTE)], k + 1
+        out[o.name] = named or object_color(o.name, o.movable)
+    return out
+
+
+def _named_color(name: str):
+    n = name.lower()
+    for word, c in (("red", (0.85, 0.2, 0.18)), ("blue", (0.2, 0.4, 0.9)),
+                    ("green", (0.2, 0.7, 0.3)), ("yellow", (0.95, 0.8, 0.2)),
+                    ("orange", (0.95, 0.55, 0.15))):
+        if word in n:
+            return c
+    return None
+
+
 def object_color(name: str, movable: bool) -> tuple[float, float, float]:
     n = name.lower()
     for word, c in (("red", (0.85, 0.2, 0.18)), ("blue", (0.2, 0.4, 0.9)),
@@ -288,6 +317,7 @@ class Poser:
                     s.nodes.append(link)
                     s.parts += [Part(self.link_nodes[link], m, T) for m, T in parts]
         self.object_nodes: dict[str, int] = {}
+        colors = object_colors(self.scene)
         for o in self.scene.objects:
             if o.shape is None:
                 continue
@@ -295,7 +325,7 @@ class Poser:
             s.nodes.append(o.name)
             for m in self._shape_meshes(o.shape, faces):
                 s.parts.append(Part(len(s.nodes) - 1, TriMesh(m.vertices, m.faces,
-                                                              object_color(o.name, o.movable)),
+                                                              colors[o.name]),
                                     np.eye(4)))
 
     def _link_parts(self, link: str, geoms, faces) -> list[tuple[TriMesh, np.ndarray]]:

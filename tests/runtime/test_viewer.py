@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, FIXTURES, TABLETOP
+from tests.support import CLUTTER, EXAMPLES, FIXTURES, TABLETOP
 
 PLANS = FIXTURES / "plans"
 
@@ -245,3 +245,38 @@ def test_the_png_frames_the_whole_scene(tmp_path):
     brown = (a[..., 0] > 90) & (a[..., 0] < 160) & (a[..., 1] > 50) & (a[..., 1] < 110) & \
         (a[..., 2] < 80)
     assert brown.mean() > 0.05, brown.mean()
+
+
+def test_each_movable_object_has_its_own_colour():
+    """Objects told apart (issue S): a colour word in a name keeps its colour, every other
+    movable object takes its own palette colour."""
+    from tmpc.lang.world import load_scene
+    from tmpc.runtime.viewer.scene import object_colors
+    scene = load_scene(EXAMPLES / "tower" / "scene.json")
+    colors = object_colors(scene)
+    cubes = [colors[n] for n in ("a", "b", "c")]
+    assert len(set(cubes)) == 3 and colors["bench"] not in cubes
+    tabletop = object_colors(load_scene(EXAMPLES / "tabletop" / "scene.json"))
+    assert tabletop["red_cube"][0] > 0.8 and tabletop["blue_cube"][2] > 0.8
+
+
+def test_the_page_labels_every_movable_object(tabletop, plan):
+    from tmpc.runtime.viewer.page import page_data
+    from tmpc.runtime.viewer.png import as_plan
+    data = page_data(tabletop, as_plan(plan), "t")
+    assert sorted(lb["name"] for lb in data["labels"]) == ["blue_cube", "red_cube"]
+    assert all(data["nodes"][lb["node"]] == lb["name"] for lb in data["labels"])
+
+
+def test_the_snapshot_frames_what_the_plan_moves(tabletop, plan, tmp_path):
+    """At the end both cubes are in the tray: the camera frames them (each shows, with its
+    label) rather than the whole scene."""
+    from PIL import Image
+
+    from tmpc.runtime.viewer.png import write_png
+    out = tmp_path / "end.png"
+    write_png(tabletop, plan, out, size=(320, 240))
+    a = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    red = (a[..., 0] > 150) & (a[..., 1] < 90) & (a[..., 2] < 90)
+    blue = (a[..., 2] > 150) & (a[..., 0] < 90) & (a[..., 1] < 120)
+    assert red.sum() > 15 and blue.sum() > 15, (red.sum(), blue.sum())

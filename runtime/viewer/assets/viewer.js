@@ -299,6 +299,27 @@ void main() {
     }
     gl.bindVertexArray(null);
   }
+  // ---- object labels: a tag above each movable object, where the camera sees it -----------
+  const tags = (D.labels || []).map((l) => {
+    const el = document.createElement("div");
+    el.className = "objlabel";
+    el.textContent = l.name;
+    document.body.appendChild(el);
+    return { node: l.node, el: el };
+  });
+  function placeTags() {
+    const w = canvas.clientWidth, h = canvas.clientHeight;
+    for (const tag of tags) {
+      const m = nodeM[tag.node], x = m[12], y = m[13], z = m[14];
+      const cx = viewProj[0] * x + viewProj[4] * y + viewProj[8] * z + viewProj[12];
+      const cy = viewProj[1] * x + viewProj[5] * y + viewProj[9] * z + viewProj[13];
+      const cw = viewProj[3] * x + viewProj[7] * y + viewProj[11] * z + viewProj[15];
+      if (cw <= 1e-6) { tag.el.style.display = "none"; continue; }
+      tag.el.style.display = "";
+      tag.el.style.left = `${(cx / cw * 0.5 + 0.5) * w}px`;
+      tag.el.style.top = `${(0.5 - cy / cw * 0.5) * h}px`;
+    }
+  }
   const speed = $("speed");
   function tick(now) {
     if (playing) {
@@ -307,7 +328,7 @@ void main() {
       if (t >= T_END) { t = T_END; setPlaying(false); }
       dirty = true;
     }
-    if (dirty) { draw(); label(); dirty = false; }
+    if (dirty) { draw(); placeTags(); label(); dirty = false; }
     requestAnimationFrame(tick);
   }
   window.addEventListener("resize", () => { dirty = true; });
