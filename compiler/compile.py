@@ -33,6 +33,7 @@ from tmpc.compiler.kernels import (
     build_tables,
     condition_kernel,
     has_lua_calls,
+    inner_bands,
     lua_host_call,
     projector_fn,
     residual_kernel,
@@ -247,7 +248,7 @@ class CompiledProgram:
         upper = np.asarray(self.model.upper)
         return self.bank.function(
             f"proj/{formula.key}",
-            lambda: projector_fn(self._condition(formula), lower, upper,
+            lambda: projector_fn(self._condition(formula, inner=True), lower, upper,
                                  wraps=np.asarray(self.model.wraps, bool)),
             [(("b", self.dof), F64), *self._mode_spec(), ((len(formula.params),), I64),
              ((), I64)], _host_calls(formula))
@@ -285,10 +286,13 @@ class CompiledProgram:
             self.kernels(self.goal), self.projector(self.goal)
         self.fk, self.fk_frames
 
-    def _condition(self, formula: Formula):
-        """The traceable condition kernel (lowers the formula's IR)."""
+    def _condition(self, formula: Formula, inner: bool = False):
+        """The traceable condition kernel (lowers the formula's IR); ``inner``: its distance
+        aims at the middle of two-sided bands (:func:`tmpc.compiler.kernels.inner_bands`), for
+        projectors."""
         return condition_kernel(formula.body, self.tables, self.options,
-                                self.frames_for(formula), self.lua_fallbacks)
+                                self.frames_for(formula), self.lua_fallbacks,
+                                inner_bands(formula.body) if inner else None)
 
     def _mode_spec(self):
         m = self.tables.n_objects

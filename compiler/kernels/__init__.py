@@ -3,6 +3,7 @@ distance kernels of lifted formulas, and the projection sampler. Forward kinemat
 :mod:`tmpc.compiler.robot`; the JAX configuration is :mod:`tmpc.compiler.jaxcfg`.
 """
 
+from tmpc.compiler.kernels.bands import inner_bands as inner_bands
 from tmpc.compiler.kernels.emit import Options as Options
 from tmpc.compiler.kernels.emit import condition_kernel as condition_kernel
 from tmpc.compiler.kernels.emit import has_lua_calls as has_lua_calls

@@ -459,22 +459,25 @@ def has_lua_calls(node: ir.Node) -> bool:
 
 
 def condition_kernel(node: ir.Node, world: KernelTables, opts: Options = Options(),
-                     frames=None, lua=None):
+                     frames=None, lua=None, dist_node: ir.Node | None = None):
     """``kernel(q, obj_T, obj_parent, args) -> (truth, distance)`` (not jitted).
 
     ``frames``: the robot frame ids this kernel may read (its possible arguments, the constants it
     names and the frames that may hold objects); forward kinematics is limited to their chains.
-    ``lua``: key -> :func:`lua_host_call` of the formula's `lua` nodes.
+    ``lua``: key -> :func:`lua_host_call` of the formula's `lua` nodes. ``dist_node``: the
+    condition whose distance is returned, when not ``node`` (a projector's inner bands,
+    :mod:`tmpc.compiler.kernels.bands`); the truth is always ``node``'s.
     """
     fk = make_fk(world.model, frames) if world.model is not None else None
     frames_needed = fk is not None and _needs_frames(node)
+    measured = node if dist_node is None else dist_node
 
     def kernel(q, obj_T, obj_parent, args):
         frames = fk(q) if frames_needed else None
         if frames is None and world.model is not None:
             frames = _static_frames(world)
         em = _Emitter(world, opts, frames, q, obj_T, obj_parent, args, lua)
-        return em.truth(node, {}), em.dist(node, {})
+        return em.truth(node, {}), em.dist(measured, {})
 
     _check_buildable(node, world)
     return kernel
