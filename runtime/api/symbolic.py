@@ -3,6 +3,8 @@ geometric symbols true where its objects are."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from tmpc.compiler.ground import SYMBOL, is_symbol
 from tmpc.compiler.kernels import state_inputs
 from tmpc.compiler.state import WorldState
@@ -10,7 +12,7 @@ from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.plans import parse_ground
 
 
-def start_symbols(compiled, state: WorldState, from_atoms: bool = True) -> int:
+def start_symbols(compiled: Any, state: WorldState, from_atoms: bool = True) -> int:
     """The ground symbolic state (a bitset) of ``state``: its mode atoms when it lists them
     (``from_atoms``; static facts are skipped, an unknown atom is E580), else the problem's
     initial atoms; geometric symbols decided at ``state`` either way."""
@@ -42,7 +44,7 @@ def start_symbols(compiled, state: WorldState, from_atoms: bool = True) -> int:
     return sym
 
 
-def _static(gp, parsed: tuple[str, tuple[str, ...]]) -> bool:
+def _static(gp: Any, parsed: tuple[str, tuple[str, ...]]) -> bool:
     name, args = parsed
     return any(p.lower() == name.lower() and tuple(a.lower() for a in xs) ==
                tuple(a.lower() for a in args) for p, xs in gp.static_facts)
