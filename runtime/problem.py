@@ -202,6 +202,20 @@ class PlanningProblem:
         self.collision = collision_world(world, self.compiled, self.tolerance)
         self.timers.compile += time.perf_counter() - t
 
+    def restart(self, state: WorldState | None = None, sym: int | None = None) -> None:
+        """Plan again from ``state`` (None: the scene's start) with the symbolic state ``sym``
+        (derived atoms recomputed; None: the problem's initial one), keeping the kernels, the
+        projectors and the collision world; the evidence and timers start afresh."""
+        base = self.compiled.ground
+        self.ground = base if sym is None else base.with_init(sym)
+        if state is None:
+            state = initial_state(self.world.scene, self.model)
+        self.q0 = np.asarray(state.q, float)
+        self.initial = self.make_mode(0, self.ground.init, dict(state.poses), dict(state.held))
+        self.evidence = Evidence()
+        self.evidence.reached(self.ground.init)
+        self.timers = Timers()
+
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:
         """The setup errors that need no collision world (:mod:`tmpc.runtime.setup_checks`):

@@ -53,6 +53,28 @@ def plan_problem(input_path, planner: str = "unified", seed: int = 0, time_limit
     return problem, result, setup
 
 
+def replan(problem: PlanningProblem, planner: str = "unified", seed: int = 0,
+           time_limit: float = 120.0, overrides: dict | None = None, start=None,
+           sym: int | None = None, progress=None, on_solution=None):
+    """Plan again in ``problem`` (from :func:`plan_problem`), from the state ``start`` with the
+    symbolic state ``sym`` (None: the scene's start; :meth:`PlanningProblem.restart`): nothing
+    is loaded or compiled again. Returns (result, setup seconds: ``plan`` entry to the planner's
+    ``solve``), the split in ``problem.setup``."""
+    t0 = time.perf_counter()
+    problem.restart(start, sym)
+    algo = make_planner(planner, problem, seed, overrides)
+    for call in getattr(algo, "warm_up_calls", list)():
+        call()
+    problem.check_start()
+    setup = time.perf_counter() - t0
+    problem.setup = {"problem": setup, "deserialize": 0.0, "first_call": 0.0, "traced": []}
+    if on_solution is not None and hasattr(algo, "on_solution"):
+        algo.on_solution = lambda result: on_solution(problem, result, setup)
+    with interruptible():
+        result = algo.solve(time_limit, progress)
+    return result, setup
+
+
 @contextmanager
 def _fewer_collections():
     """Python's cycle collector runs far less often during setup (its thresholds restored

@@ -7,6 +7,9 @@ LM-cut and the registry of `tmpc plan`'s engines (:data:`ENGINES`,
 CLI's ``--planner`` choices, ``tmpc bench --planners`` and the registry test all read it; there
 is no other list of planners.
 
+Installed distributions add planners under the entry point group ``tmpc.planners``
+(:func:`load_entry_points`, run at import: ``--planner`` lists them).
+
 The registry is light (the CLI's parser reads it); the planners themselves and the task planner
 are imported on first use (PEP 562 ``__getattr__`` below), so importing this package costs nothing.
 """
@@ -14,6 +17,7 @@ are imported on first use (PEP 562 ``__getattr__`` below), so importing this pac
 from __future__ import annotations
 
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from typing import Callable, Mapping
 
 from tmpc.lang.diagnostics import InputError, error
@@ -56,6 +60,36 @@ PLANNERS: dict[str, PlannerSpec] = {
 }
 
 
+#: the entry point group third-party planners register under (docs/api.md, "Planners")
+ENTRY_POINT_GROUP = "tmpc.planners"
+
+
+def load_entry_points() -> list[str]:
+    """Add the planners installed distributions register under :data:`ENTRY_POINT_GROUP` (an
+    entry point's name is the planner's; it names a :class:`PlannerSpec` or a factory,
+    loaded when the planner is first built); built-in names win. Returns the names added."""
+    added = []
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name in PLANNERS:
+            continue
+        dist = getattr(ep.dist, "name", None) or ep.value
+        PLANNERS[ep.name] = PlannerSpec(_entry_point_factory(ep),
+                                        f"third-party planner ({dist}: {ep.value})")
+        added.append(ep.name)
+    return added
+
+
+def _entry_point_factory(ep):
+    def factory(problem, seed: int, overrides: dict):
+        target = ep.load()
+        make = target.factory if isinstance(target, PlannerSpec) else target
+        return make(problem, seed, overrides)
+    return factory
+
+
+load_entry_points()
+
+
 def make_planner(name: str, problem, seed: int = 0, overrides: Mapping | None = None):
     """The registered planner ``name`` for ``problem``; E826 names the registry when unknown."""
     spec = PLANNERS.get(name)
@@ -94,5 +128,5 @@ def __getattr__(name: str):
     return getattr(importlib.import_module(module), name)
 
 
-__all__ = ["PLANNERS", "PlannerSpec", "ENGINES", "EngineSpec", "EngineResult", "Limits",
+__all__ = ["PLANNERS", "PlannerSpec", "ENTRY_POINT_GROUP", "load_entry_points", "ENGINES", "EngineSpec", "EngineResult", "Limits",
            "make_planner", "unknown_planner", *_LAZY]
