@@ -12,3 +12,8 @@ from tmpc.runtime.timing.parameterize import moving_joints as moving_joints
 from tmpc.runtime.timing.parameterize import time_plan as time_plan
 from tmpc.runtime.timing.parameterize import time_segment as time_segment
 from tmpc.runtime.timing.timed import time_world_plan as time_world_plan
+from tmpc.runtime.timing.ros import duration_msg as duration_msg
+from tmpc.runtime.timing.ros import duration_seconds as duration_seconds
+from tmpc.runtime.timing.ros import ros_document as ros_document
+from tmpc.runtime.timing.ros import total_seconds as total_seconds
+from tmpc.runtime.timing.ros import write_ros as write_ros

@@ -139,3 +139,57 @@ def test_timed_plans_read_and_bad_times_are_e818(timed_tabletop):
     with pytest.raises(TmpcError) as exc:
         parse_plan(SourceFile("<plan>", json.dumps(broken)))
     assert exc.value.diagnostics[0].code == "E818"
+
+
+@pytest.mark.parametrize("suffix", ["json", "yaml"])
+def test_the_export_round_trips(timed_tabletop, tmp_path, suffix):
+    import yaml
+
+    from tmpc.runtime.cli.main import main
+    from tmpc.runtime.timing import total_seconds
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps(timed_tabletop))
+    out = tmp_path / f"traj.{suffix}"
+    assert main(["export", str(plan), "--format", "ros-joint-trajectory", "-o", str(out)]) == 0
+    text = out.read_text()
+    doc = yaml.safe_load(text) if suffix == "yaml" else json.loads(text)
+    if suffix == "yaml":
+        assert "&id" not in text and not text.lstrip().startswith("{")
+    states, timing = timed_tabletop["states"], timed_tabletop["timing"]
+    trajectories = [s for s in doc["steps"] if s["type"] == "trajectory"]
+    assert len(trajectories) == len(timing["motions"]) == 4
+    assert [(s["event"], s["object"]) for s in doc["steps"] if s["type"] == "event"] == \
+        [("grasp", "blue_cube"), ("release", "blue_cube"), ("grasp", "red_cube"),
+         ("release", "red_cube")]
+    last = -1.0
+    for step in doc["steps"]:
+        if step["type"] == "event":
+            assert step["time"] >= last - 1e-6
+            last = step["time"]
+            continue
+        msg = step["trajectory"]
+        names = msg["joint_names"]
+        times = [total_seconds(step, p) for p in msg["points"]]
+        assert times[0] >= last - 1e-6 and all(b > a for a, b in zip(times, times[1:]))
+        last = times[-1]
+        for p in msg["points"]:
+            assert set(p) == {"positions", "velocities", "accelerations", "effort",
+                              "time_from_start"}
+            assert 0 <= p["time_from_start"]["nanosec"] < 10**9
+            assert len(p["positions"]) == len(p["velocities"]) == len(names)
+            for n, v in zip(names, p["velocities"]):
+                assert abs(v) <= doc["limits"][n]["velocity"] * (1 + 1e-6)
+        first, end = step["states"]
+        for k in (first, end):          # the motion starts and ends at the plan's states
+            p = msg["points"][0 if k == first else -1]
+            assert p["positions"] == pytest.approx([states[k]["joints"][n] for n in names],
+                                                   abs=1e-9)
+            assert total_seconds(step, p) == pytest.approx(states[k]["t"], abs=1e-9)
+
+
+def test_export_needs_times(tabletop_doc, tmp_path, capsys):
+    from tmpc.runtime.cli.main import main
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps(tabletop_doc))
+    assert main(["export", str(plan), "--format", "ros-joint-trajectory"]) == 1
+    assert "E819" in capsys.readouterr().err
