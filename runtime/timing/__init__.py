@@ -17,3 +17,5 @@ from tmpc.runtime.timing.ros import duration_seconds as duration_seconds
 from tmpc.runtime.timing.ros import ros_document as ros_document
 from tmpc.runtime.timing.ros import total_seconds as total_seconds
 from tmpc.runtime.timing.ros import write_ros as write_ros
+from tmpc.runtime.timing.limits import urdf_path as urdf_path
+from tmpc.runtime.timing.ros import events as events
