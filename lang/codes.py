@@ -153,7 +153,7 @@ _TABLE = (
                           "cannot prove it; the smallest distance left is given)"),
 
     # Task and motion planning (`tmpc run`)
-    Code("E819", ERROR, "a geometric goal atom over objects that never move (no movable object, no "
+    Code("E834", ERROR, "a geometric goal atom over objects that never move (no movable object, no "
                         "robot frame) that is false in the scene: no plan can make it true"),
     Code("E820", ERROR, "`tmpc run` was given a scene alone (or a configuration without a "
                         "problem): it needs a domain and a problem"),
@@ -359,6 +359,14 @@ _TABLE = (
                           "--strict"),
     Code("E817", ERROR, "a plan made for another problem: it names joints the robot does not have "
                         "or objects the scene does not (`validate`, `view`)"),
+    Code("E818", ERROR, "a state's `t` that is not a finite number >= 0, or is before the "
+                        "previous state's (a timed plan)"),
+    Code("E819", ERROR, "`tmpc export` or `tmpc simulate` given a plan without times (time it "
+                        "first: `tmpc time`, `tmpc run --timed`)"),
+    Code("E832", ERROR, "a plan that cannot be timed: no robot, its URDF not found, or a motion "
+                        "toppra finds no profile for (`tmpc time`, `run --timed`)"),
+    Code("E833", ERROR, "`tmpc simulate`: MuJoCo is not installed, or cannot build the robot or "
+                        "scene (the message says which part)"),
     Code("E814", ERROR, "`tmpc view --state I` (a PNG snapshot) with no state I in the plan"),
     Code("E815", ERROR, "a viewer output (`--html`, `--png`) that cannot be written (no such "
                         "directory, no permission)"),

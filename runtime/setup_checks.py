@@ -12,7 +12,7 @@ meets them (:data:`SETUP_CODES`):
   predicate, naming the object);
 * E566: an action the problem can apply holds an object the scene marks static (at the action);
 * E824: the goal is unreachable even ignoring deletes and geometry (at the goal);
-* E819: a geometric goal atom that can never change (it names no movable object and no robot
+* E834: a geometric goal atom that can never change (it names no movable object and no robot
   frame) is false in the scene (at the atom): evaluated once, by the numpy interpreter;
 * E829: a start joint outside its limits; E823: the start state in collision.
 """
@@ -35,7 +35,7 @@ from tmpc.runtime.collision import CollisionWorld
 from tmpc.runtime.evaluate import Evaluator, Obj
 
 #: the setup errors, in the order a run meets them
-SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E819", "E829", "E823")
+SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E834", "E829", "E823")
 
 
 class SetupChecks:
@@ -194,7 +194,7 @@ class SetupChecks:
                       f"native manifest's [planner] collision_tolerance (now {tolerance} m)")]
 
     def fixed_goal_atoms(self) -> list[Diagnostic]:
-        """E819: goal atoms over objects that never move, false in the scene's start."""
+        """E834: goal atoms over objects that never move, false in the scene's start."""
         scene, scope = self.world.scene, self.scope
         if self.model is None:
             return []
@@ -218,7 +218,7 @@ class SetupChecks:
             if holds != positive:
                 text = _atom_text(atom)
                 out.append(error(
-                    "E819", f"the goal {'needs' if positive else 'excludes'} {text}, which is "
+                    "E834", f"the goal {'needs' if positive else 'excludes'} {text}, which is "
                     f"{'false' if positive else 'true'} in the scene and names nothing that "
                     "moves: no plan can change it", atom.span,
                     "make one of its objects movable, or move them in the scene "

@@ -42,7 +42,8 @@ LAZY_TMPC = {"tmpc.runtime.cli.main", "tmpc.runtime.planners",
 HEAVY = {"jax", "jaxlib", "numba", "fcl", "trimesh", "z3", "yourdfpy", "lupa", "pinocchio", "PIL",
          "ompl", "collada", "matplotlib", "ray", "rich", "importlib", "traceback", "dataclasses", "itertools", "json",
          "pathlib", "xml",
-         "scipy"}    # scipy.spatial (qhull) for the validator's exact depths: 0.2 s, ~25 MB
+         "scipy",    # scipy.spatial (qhull) for the validator's exact depths: 0.2 s, ~25 MB
+         "toppra", "yaml", "mujoco"}    # timing, export as YAML, the physics check
 
 
 def _modules() -> dict[str, Path]:

@@ -74,6 +74,21 @@ def cmd_validate(args) -> int:
     return run_validate(args)
 
 
+def cmd_time(args) -> int:
+    from tmpc.runtime.cli.timing import run_time
+    return run_time(args)
+
+
+def cmd_export(args) -> int:
+    from tmpc.runtime.cli.export import run_export
+    return run_export(args)
+
+
+def cmd_simulate(args) -> int:
+    from tmpc.runtime.cli.simulate import run_simulate
+    return run_simulate(args)
+
+
 def cmd_view(args) -> int:
     from tmpc.runtime.cli.view import run_view
     return run_view(args)
@@ -104,6 +119,10 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "run": (cmd_run, "task and motion planning: a collision-free, action-annotated trajectory"),
     "validate": (cmd_validate, "check a plan independently: collisions, preconditions, goal"),
     "view": (cmd_view, "render a plan: an animated HTML page and/or a PNG snapshot"),
+    "time": (cmd_time, "time a plan: time-optimal motions under the robot's joint limits"),
+    "export": (cmd_export, "write a timed plan for a robot: ROS JointTrajectory-shaped JSON/YAML"),
+    "simulate": (cmd_simulate, "replay a timed plan in MuJoCo: drift, contacts, the goal after "
+                 "settling"),
     "repair": (cmd_repair, "repair an action's geometric precondition from observed executions"),
     "bench": (cmd_bench, "benchmark planners over problems, seeds and parameters (a local "
               "pool or Ray; JSON, table, OMPL log, plots)"),
@@ -130,8 +149,9 @@ LUA_COMMANDS = {"check", "compile", "eval", "sample", "run", "validate"}
 
 
 def _configure(name: str, p: argparse.ArgumentParser) -> None:
-    p.add_argument("--format", choices=("text", "json"), default="text",
-                   help="diagnostics as text (default) or JSON on stdout")
+    if name != "export":       # export's --format is the document's (a contract)
+        p.add_argument("--format", choices=("text", "json"), default="text",
+                       help="diagnostics as text (default) or JSON on stdout")
     p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                    help="show tracebacks of internal errors")
     if name in LUA_COMMANDS:
@@ -235,6 +255,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--until-converged", action="store_true",
                        help="optimal: stop once the best cost of the last 10 searches "
                        "varies by at most 10%%")
+        p.add_argument("--timed", action="store_true", help="give the plan a time-optimal "
+                       "timing (toppra, the URDF's limits; docs/robot-export.md)")
+        _timing_options(p)
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
                        "imports, load, compile, deserialize, first-call compile, planning, output")
@@ -255,6 +278,36 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="warnings are violations: a released object that does not rest on a "
                        "support (W830) makes the plan invalid")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
+        p.add_argument("--physics", action="store_true", help="then replay the plan in MuJoCo "
+                       "(`tmpc simulate --strict`; an untimed plan is timed first)")
+    elif name == "time":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact the "
+                       "plan was made for")
+        p.add_argument("plan", metavar="PLAN.json")
+        p.add_argument("-o", "--output", metavar="OUT.json", help="write the timed plan here "
+                       "(default: stdout)")
+        _timing_options(p)
+    elif name == "export":
+        p.add_argument("plan", metavar="PLAN.json", help="a timed plan (`tmpc time`, `tmpc run "
+                       "--timed`)")
+        p.add_argument("--format", dest="export_format", required=True,
+                       choices=("ros-joint-trajectory",), help="ros-joint-trajectory: one "
+                       "trajectory_msgs/JointTrajectory per motion, grasp/release events between")
+        p.add_argument("-o", "--output", metavar="FILE", help="FILE.json, or FILE.yaml/.yml "
+                       "for YAML (default: JSON on stdout)")
+    elif name == "simulate":
+        p.add_argument("input", metavar="INPUT", help="the run configuration or artifact the "
+                       "plan was made for")
+        p.add_argument("plan", metavar="PLAN.json", help="a plan (an untimed one is timed "
+                       "first)")
+        p.add_argument("--strict", action="store_true", help="exit 1 when a released object "
+                       "drifts more than 1 cm while settling or the goal no longer holds")
+        p.add_argument("--json", action="store_true", help="print the report as JSON")
+        p.add_argument("--html", metavar="OUT.html", help="write the simulated motion as a "
+                       "viewer page")
+        p.add_argument("--settle", type=SECONDS, default=1.0, metavar="S",
+                       help="seconds the world is left to settle after the plan (default 1)")
+        _timing_options(p)
     elif name == "view":
         p.add_argument("input", metavar="INPUT", help="the run configuration or artifact")
         p.add_argument("plan", metavar="PLAN.json")
@@ -347,6 +400,14 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
                        help="change nothing; exit 1 if a file would be reformatted")
+
+
+def _timing_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-accel", type=SECONDS, default=None, metavar="A",
+                   help="joint acceleration limit (rad/s², m/s²) where the URDF gives none "
+                   "(default 2)")
+    p.add_argument("--dt", type=SECONDS, default=None, metavar="S",
+                   help="seconds between a timed motion's samples (default 0.05)")
 
 
 def _version() -> str:

@@ -17,6 +17,7 @@ from tmpc.lang.diagnostics import InputError, TmpcError, error
 from tmpc.lang.fileio import unwritable
 from tmpc.lang.world import is_run_config, load_config
 from tmpc.runtime.cli.exits import EXIT_NOT_FOUND, EXIT_OK, EXIT_USAGE
+from tmpc.runtime.cli.timing import timed
 from tmpc.runtime.explain import explain, summary_lines
 from tmpc.runtime.interrupts import writing
 from tmpc.runtime.plans import legacy_states, plan_document, write_json_atomic
@@ -58,6 +59,8 @@ def run_run(args, imports: float = 0.0) -> int:
         progress.done()
     doc = plan_document(problem, result, planner=args.planner, seed=args.seed,
                         input_path=args.input, setup_seconds=setup)
+    if getattr(args, "timed", False) and result.status == "solved":
+        timed(problem.world, doc, args)
     with writing():                     # a signal now waits until every output is complete
         _write_outputs(args, problem, doc, output)
     split["output"] = time.perf_counter() - t

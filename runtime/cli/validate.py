@@ -9,6 +9,7 @@ import sys
 
 from tmpc.compiler.artifact import open_world
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_OK
+from tmpc.runtime.cli.simulate import physics
 from tmpc.runtime.plans import check_plan_fits, file_digest, read_plan
 from tmpc.runtime.validate import check_numbers, validate_plan
 
@@ -29,4 +30,7 @@ def run_validate(args) -> int:
         sys.stdout.write(json.dumps(report.as_json(), indent=2) + "\n")
     else:
         sys.stdout.write(report.text() + "\n")
+    if getattr(args, "physics", False):
+        args.strict = True
+        return physics(world, args) if report.valid else EXIT_ERROR
     return EXIT_OK if report.valid else EXIT_ERROR

@@ -27,7 +27,7 @@ from tmpc.lang.jsonpos import parse_json
 from tmpc.lang.source import SourceFile, Span
 
 FORMAT = "tmpc-plan/1"
-STATE_FIELDS = ("joints", "base_pose", "object_poses", "action", "mode")
+STATE_FIELDS = ("joints", "base_pose", "object_poses", "action", "mode", "t")
 #: a quaternion whose norm is further than this from 1 is malformed (E806)
 QUAT_NORM_TOLERANCE = 1e-3
 
@@ -47,6 +47,8 @@ class PlanState:
     action_text: str | None = None
     mode_atoms: tuple[tuple[str, tuple[str, ...]], ...] | None = None
     mode_held: dict[str, str] | None = None
+    #: seconds from the plan's start (a timed plan, docs/plan-format.md); None when untimed
+    t: float | None = None
 
 
 @dataclass
@@ -60,6 +62,11 @@ class Plan:
     status: str | None = None
     actions: list[str] | None = None
     meta: dict = field(default_factory=dict)
+
+    @property
+    def timed(self) -> bool:
+        """Every state has a time (``tmpc time``, ``tmpc run --timed``)."""
+        return all(s.t is not None for s in self.states)
 
     @property
     def action_count(self) -> int:
@@ -197,7 +204,13 @@ class _Reader:
         if not value:
             raise self.fail("E803", ptr, "the plan has no states",
                             "the first state is the problem's initial state")
-        return [self.state(s, f"{ptr}/{i}", i) for i, s in enumerate(value)]
+        states = [self.state(s, f"{ptr}/{i}", i) for i, s in enumerate(value)]
+        for i in range(1, len(states)):
+            a, b = states[i - 1].t, states[i].t
+            if a is not None and b is not None and b < a:
+                raise self.fail("E818", f"{ptr}/{i}/t", f"time {b:g} is before the previous "
+                                f"state's {a:g}", "a timed plan's times never decrease")
+        return states
 
     # ---- one state -------------------------------------------------------------------------
     def state(self, s, ptr: str, index: int) -> PlanState:
@@ -214,7 +227,12 @@ class _Reader:
         action = self.action(s.get("action"), f"{ptr}/action")
         atoms, held = self.mode(s.get("mode"), f"{ptr}/mode")
         text = None if action is None else "(" + " ".join((action[0],) + action[1]) + ")"
-        return PlanState(index, joints, base, objects, action, text, atoms, held)
+        t = s.get("t")
+        if t is not None and not (_number(t) and t >= 0):
+            raise self.fail("E818", f"{ptr}/t", f"a state's time is a finite number >= 0 "
+                            f"(seconds from the plan's start), found {_show(t)}")
+        return PlanState(index, joints, base, objects, action, text, atoms, held,
+                         None if t is None else float(t))
 
     def joints(self, value, ptr: str) -> dict[str, float]:
         if value is None:

@@ -67,7 +67,7 @@ CASES = {
                    _text("problem.pddl", "(on a bench))", "(on a bench) (painted a))")),
              ("problem.pddl", 7, 46)),
     # a goal atom over two static surfaces, false in the scene
-    "E819": (_both(_text("domain.pddl", "(free ?g - gripper)",
+    "E834": (_both(_text("domain.pddl", "(free ?g - gripper)",
                          "(free ?g - gripper) (above ?s - surface ?t - surface "
                          ":semantics (> (z ?s) (z ?t)))"),
                    _text("problem.pddl", "bench - surface", "bench shelf - surface"),
