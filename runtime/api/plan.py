@@ -16,10 +16,13 @@ class Plan:
     ``solved`` is false and ``explanation`` says why."""
 
     def __init__(self, document: dict[str, Any], cost: float | None,
-                 explanation: dict[str, Any] | None, symbolic: list[int] | None = None) -> None:
+                 explanation: dict[str, Any] | None, symbolic: list[int] | None = None,
+                 replanned: bool = False) -> None:
         self.document = document
         self.cost = cost
         self.explanation = explanation
+        #: planned from a start other than the scene's (validated from its first state)
+        self.replanned = replanned
         #: the symbolic state (ground bitset, geometric symbols included) of each state
         self.symbolic = symbolic or []
 

@@ -154,17 +154,23 @@ class World:
         doc["stats"]["plan_seconds"] = round(time.perf_counter() - t0, 4)
         why = None if result.status == "solved" else explain(problem, result.status)
         return Plan(doc, plan_cost(result, problem), why,
-                    [mode.sym for _, mode, _ in result.path])
+                    [mode.sym for _, mode, _ in result.path], replanned=start is not None)
 
-    def validate(self, plan: Plan | dict[str, Any] | str | Path, strict: bool = False) -> Any:
+    def validate(self, plan: Plan | dict[str, Any] | str | Path, strict: bool = False,
+                 start: str | None = None) -> Any:
         """The independent validator's report on ``plan`` (a :class:`Plan`, a plan document or
         a plan file): ``valid``, ``violations`` (each with ``state``, ``kind``, ``message``),
-        ``warnings``, ``summary()`` and ``text()``."""
+        ``warnings``, ``summary()`` and ``text()``. ``start``: ``"scene"`` (the plan must start
+        at the scene's start) or ``"plan"`` (its first state is the start, as for a plan made
+        by replanning from an observed state); default: ``"plan"`` for a :class:`Plan` planned
+        from another start, else ``"scene"``."""
+        if start is None:
+            start = "plan" if isinstance(plan, Plan) and plan.replanned else "scene"
         if isinstance(plan, (str, Path)):
-            return validate_plan(self.world, str(plan), strict=strict)
+            return validate_plan(self.world, str(plan), strict=strict, start=start)
         doc = plan.document if isinstance(plan, Plan) else plan
         parsed = parse_plan(SourceFile("<plan>", json.dumps(doc)))
-        return validate_plan(self.world, parsed, strict=strict)
+        return validate_plan(self.world, parsed, strict=strict, start=start)
 
     def view(self, plan: Plan | dict[str, Any], html: str | Path | None = None,
              png: str | Path | None = None) -> None:

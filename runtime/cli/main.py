@@ -278,6 +278,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="warnings are violations: a released object that does not rest on a "
                        "support (W830) makes the plan invalid")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
+        p.add_argument("--from-plan-start", action="store_true",
+                       help="the plan's first state is its start (a plan made by replanning from "
+                       "an observed state), not the scene's start")
         p.add_argument("--physics", action="store_true", help="then replay the plan in MuJoCo "
                        "(`tmpc simulate --strict`; an untimed plan is timed first)")
     elif name == "time":

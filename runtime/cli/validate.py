@@ -20,7 +20,8 @@ def run_validate(args) -> int:
     world = open_world(args.input)
     check_plan_fits(world, plan, args.input)
     report = validate_plan(world, plan, args.tolerance, args.resolution,
-                           getattr(args, "convention", "auto"), args.strict)
+                           getattr(args, "convention", "auto"), args.strict,
+                           "plan" if getattr(args, "from_plan_start", False) else "scene")
     made_for = (plan.meta.get("input") or {}).get("digest") if isinstance(
         plan.meta.get("input"), dict) else None
     if made_for and made_for != file_digest(args.input):

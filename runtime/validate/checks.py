@@ -38,7 +38,7 @@ class StateChecks:
     # ---- checks ---------------------------------------------------------------------------------
     def _check_state(self, ps: PlanState, st: ResolvedState, prev: ResolvedState | None,
                      rep: Report) -> None:
-        if prev is None:
+        if prev is None and self.start == "scene":
             self._check_initial(ps, st)
         self._check_joints(ps, st)
         self._check_base(st)

@@ -66,11 +66,13 @@ class Validator(StateChecks):
     """Validate plans for one world (a run configuration with a domain and a problem)."""
 
     def __init__(self, world, tolerance: float | None = None, resolution: float = 0.05,
-                 convention: str = "auto", strict: bool = False):
+                 convention: str = "auto", strict: bool = False, start: str = "scene"):
         if convention not in CONVENTIONS:
             raise ValueError(f"convention must be one of {CONVENTIONS}")
         self.convention_option = convention
         self.strict = strict
+        #: "scene": the first state must be the scene's start; "plan": it is the start
+        self.start = start
         self.convention = "tmpc"
         self.world, self.scene = world, world.scene
         self.tolerance = default_tolerance(world) if tolerance is None else float(tolerance)
@@ -190,7 +192,7 @@ class Validator(StateChecks):
         i = ps.index
         if prev is None:
             expected = L.initial()
-            why = "the problem's initial state"
+            why = "the problem's initial state" if self.start == "scene" else None
         elif prev.action is not None and self._bound(prev) is None:
             # an action that is not one of the domain's (reported at its state): the plan's mode
             # is taken as it is
@@ -351,14 +353,19 @@ def default_tolerance(world) -> float:
 
 def validate_plan(world, plan: Plan | str, tolerance: float | None = None,
                   resolution: float = 0.05, convention: str = "auto",
-                  strict: bool = False) -> Report:
+                  strict: bool = False, start: str = "scene") -> Report:
     """Validate ``plan`` (a :class:`Plan` or a path) in ``world``; see the module docstring.
-    ``strict``: warnings (a released object that does not rest, W830) are violations."""
+    ``strict``: warnings (a released object that does not rest, W830) are violations.
+    ``start``: ``"scene"``, the plan must start at the scene's start; ``"plan"``, its first
+    state is the start (a plan made from an observed state: its configuration, object poses
+    and mode are taken as given, and everything after is checked from there)."""
     _check_world(world)
     check_numbers(tolerance, resolution)
+    if start not in ("scene", "plan"):
+        raise ValueError("start must be 'scene' or 'plan'")
     if not isinstance(plan, Plan):
         plan = read_plan(plan)
-    return Validator(world, tolerance, resolution, convention, strict).validate(plan)
+    return Validator(world, tolerance, resolution, convention, strict, start).validate(plan)
 
 
 def _check_world(world) -> None:

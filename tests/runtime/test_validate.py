@@ -711,3 +711,27 @@ def test_a_depth_fcl_overestimates_is_confirmed_exactly(tmp_path):
         elif depth is not None and epa > checker.tolerance:
             assert depth == pytest.approx(ref, abs=1e-6)
     assert found >= 3
+
+
+def test_a_plan_from_an_observed_start_is_checked_from_its_first_state(tmp_path):
+    """start="plan" (a replanned plan, `tmpc validate --from-plan-start`): the first state's
+    configuration, poses and mode are taken as given; what follows is still checked."""
+    import json
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.lang.source import SourceFile
+    from tmpc.runtime.plans import parse_plan
+    from tmpc.runtime.validate import validate_plan
+    world = open_world(TABLETOP)
+    doc = json.loads((FIXTURES / "plans" / "tabletop.json").read_text())
+    # drop the first motion: the plan now starts where the robot was after it
+    first = next(i for i, s in enumerate(doc["states"]) if s["action"] is not None)
+    cut = dict(doc, states=doc["states"][first:])
+    plan = parse_plan(SourceFile("<cut>", json.dumps(cut)))
+    assert not validate_plan(world, plan).valid                 # not the scene's start
+    assert validate_plan(world, plan, start="plan").valid
+    # and a later state that breaks the plan is still caught
+    bad = json.loads(json.dumps(cut))
+    bad["states"][-1]["object_poses"]["red_cube"]["translation"][2] += 0.3
+    rep = validate_plan(world, parse_plan(SourceFile("<bad>", json.dumps(bad))), start="plan")
+    assert not rep.valid
