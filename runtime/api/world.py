@@ -120,20 +120,26 @@ class World:
         return [sampled_state(compiled, st, q) for q in got.found]
 
     # ---- planning -----------------------------------------------------------------------------
-    def plan(self, planner: str = "optimal", seed: int = 0, time_limit: float = 60.0,
+    def plan(self, planner: str = "optimal", seed: int = 0, time_limit: float | None = None,
              start: Start = None, first_solution: bool | None = None,
              options: dict[str, Any] | None = None,
              progress: Callable[[Any], None] | None = None) -> Plan:
         """Plan from ``start`` (None: the scene's start) with the registered ``planner``; a
-        :class:`Plan` whether or not one was found. ``first_solution``: an anytime planner
-        stops at its first plan; ``options``: the planner's other options (``tmpc run``'s
+        :class:`Plan` whether or not one was found. ``time_limit``: the seconds to plan (and,
+        for an anytime planner, to improve its plan); None: up to 120 s, stopping at the first
+        plan. ``first_solution``: an anytime planner stops at its first plan (default: when no
+        ``time_limit`` is given); ``options``: the planner's other options (``tmpc run``'s
         flags, e.g. ``{"batch_size": 200}``). The first call sets up the planning problem;
         later calls reuse it (no load, no compile) and time their set-up in
         :attr:`last_overhead`."""
         t0 = time.perf_counter()
         overrides = dict(options or {})
+        if first_solution is None and time_limit is None:
+            first_solution = True
         if first_solution is not None:
             overrides["first_solution"] = first_solution
+        if time_limit is None:
+            time_limit = 120.0
         if self.problem is None and start is None:
             problem, result, setup = plan_problem(self.world, planner, seed, time_limit,
                                                   overrides, progress)

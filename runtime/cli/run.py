@@ -133,12 +133,18 @@ def _check_outputs(outputs) -> None:
 
 
 def planner_overrides(args) -> dict:
-    """The planner options given on the command line (None where not given)."""
+    """The planner options given on the command line (None where not given). An anytime
+    planner stops at its first solution unless the command line gives a time limit to spend
+    (or --until-converged): `tmpc run X` answers as soon as it has a plan."""
     flag = (lambda name: True if getattr(args, name, False) else None)
+    first = flag("first_solution")
+    if first is None and getattr(args, "time_limit", None) is None and \
+            not getattr(args, "until_converged", False):
+        first = True
     return {"heuristic_bias": getattr(args, "heuristic_bias", None),
             "batch_size": getattr(args, "batch_size", None),
             "rewire": getattr(args, "rewire_factor", None),
-            "first_solution": flag("first_solution"),
+            "first_solution": first,
             "until_converged": flag("until_converged")}
 
 

@@ -1,6 +1,7 @@
 """Replanning benchmark (issue 41): per problem, the first plan() and three more from the start in
 one process (overhead before planning, plan() total); then a 20-step loop on clutter pb_4: execute
-one action, perturb the observed movable objects' positions by up to 1 cm (x, y), replan.
+one action, perturb the observed movable objects' positions by up to 1 cm (x, y), replan, and
+validate each plan independently from its observed start.
 
     python tests/bench/replan.py [--loop-only] [--steps 20]
 """
@@ -51,7 +52,7 @@ def loop(path: Path, steps: int, seed: int = 0) -> dict:
     rng = np.random.default_rng(seed)
     plan = world.plan(seed=0, time_limit=60.0, first_solution=True)
     assert plan.solved
-    times, overheads, solved = [], [], 0
+    times, overheads, solved, valid = [], [], 0, 0
     for step in range(steps):
         states = plan.states
         # execute one action: the state after the first action's effects
@@ -78,7 +79,11 @@ def loop(path: Path, steps: int, seed: int = 0) -> dict:
             print(f"  step {step}: no plan ({plan.explanation['summary']})", file=sys.stderr)
             break
         solved += 1
-    return {"steps": len(times), "solved": solved,
+        report = world.validate(plan)           # from its own (observed) first state
+        valid += report.valid
+        if not report.valid:
+            print(f"  step {step}: invalid: {report.summary()}", file=sys.stderr)
+    return {"steps": len(times), "solved": solved, "valid": valid,
             "replan_median": statistics.median(times) if times else None,
             "overhead_median_ms": 1000 * statistics.median(overheads) if overheads else None}
 
