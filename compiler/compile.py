@@ -24,7 +24,7 @@ import numpy as np
 from tmpc.compiler import ir
 from tmpc.compiler.artifact import load_bank
 from tmpc.compiler.bank import F64, I64, KernelBank
-from tmpc.compiler.ground import SYMBOL, is_symbol, with_geometric_symbols
+from tmpc.compiler.ground import with_geometric_symbols
 from tmpc.compiler.ground import ground as ground_program
 from tmpc.compiler.jaxcfg import configured
 from tmpc.compiler.kernels import (
@@ -37,12 +37,10 @@ from tmpc.compiler.kernels import (
     lua_host_call,
     projector_fn,
     residual_kernel,
-    state_inputs,
 )
 from tmpc.compiler.lower import Lowerer
 from tmpc.compiler.lua_trace import trace_module
 from tmpc.compiler.robot import RobotModel, make_fk, make_fk_frames, robot_model
-from tmpc.compiler.state import initial_state
 from tmpc.lang import ast as A
 from tmpc.lang.checker import CheckedProgram
 from tmpc.lang.diagnostics import InputError, error
@@ -116,22 +114,10 @@ class CompiledProgram:
 
     @cached_property
     def ground(self):
-        """The grounded problem (:class:`~tmpc.compiler.ground.GroundProblem`); geometric
-        symbols (:mod:`tmpc.compiler.ground.symbols`) true in the scene's start are set in its
-        initial state."""
-        gp = ground_program(self.program)
-        symbols = [i for i, a in enumerate(gp.atoms) if is_symbol(a.predicate)]
-        if not symbols or self.model is None:
-            return gp
-        q, obj_T, obj_parent = state_inputs(self.tables, initial_state(self.scene, self.model))
-        init = gp.init
-        for i in symbols:
-            atom = gp.atoms[i]
-            formula = self.predicate(atom.predicate[:-len(SYMBOL)])
-            kernel, _ = self.kernels(formula)
-            if bool(kernel(q, obj_T, obj_parent, self.bind_args(formula, list(atom.args)))[0]):
-                init |= 1 << i
-        return gp.with_init(init)
+        """The grounded problem (:class:`~tmpc.compiler.ground.GroundProblem`). Its geometric
+        symbols (:mod:`tmpc.compiler.ground.symbols`) start false: which hold where a plan
+        starts is the runtime's to decide (:func:`tmpc.runtime.evaluate.true_symbols`)."""
+        return ground_program(self.program)
 
     @cached_property
     def goal(self) -> Formula | None:

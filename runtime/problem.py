@@ -29,6 +29,7 @@ import numpy as np
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import geo_atoms
 from tmpc.compiler.kernels import state_inputs
+from tmpc.runtime.evaluate import true_symbols
 from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
 from tmpc.compiler.robot import Frames
@@ -181,6 +182,7 @@ class PlanningProblem:
         self._check_objects()
         self.tolerance = collision_tolerance(world.config) if tolerance is None else tolerance
         s0 = initial_state(world.scene, self.model)
+        self.ground = self.with_start_symbols(self.ground, s0)
         self.q0 = np.asarray(s0.q, float)
         self.initial = self.make_mode(0, self.ground.init, s0.poses, s0.held)
         #: what planning tried, for "why no plan" (:func:`tmpc.runtime.explain.explain`)
@@ -207,14 +209,21 @@ class PlanningProblem:
         (derived atoms recomputed; None: the problem's initial one), keeping the kernels, the
         projectors and the collision world; the evidence and timers start afresh."""
         base = self.compiled.ground
-        self.ground = base if sym is None else base.with_init(sym)
         if state is None:
             state = initial_state(self.world.scene, self.model)
+        self.ground = self.with_start_symbols(base, state) if sym is None else base.with_init(sym)
         self.q0 = np.asarray(state.q, float)
         self.initial = self.make_mode(0, self.ground.init, dict(state.poses), dict(state.held))
         self.evidence = Evidence()
         self.evidence.reached(self.ground.init)
         self.timers = Timers()
+
+    def with_start_symbols(self, ground, state: WorldState):
+        """``ground`` with its geometric symbols true where they hold at ``state``'s object
+        poses (:func:`tmpc.runtime.evaluate.true_symbols`)."""
+        bits = true_symbols(ground, self.world.scene, self.model, self.world.program.scope,
+                            state.poses)
+        return ground.with_init(ground.init | bits) if bits else ground
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:

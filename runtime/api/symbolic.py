@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from tmpc.compiler.ground import SYMBOL, is_symbol
-from tmpc.compiler.kernels import state_inputs
+from tmpc.compiler.ground import is_symbol
 from tmpc.compiler.state import WorldState
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.evaluate import true_symbols
 from tmpc.runtime.plans import parse_ground
 
 
@@ -33,14 +33,9 @@ def start_symbols(compiled: Any, state: WorldState, from_atoms: bool = True) -> 
         sym = gp.init
         for i in symbols:
             sym &= ~(1 << i)
-    if symbols and compiled.model is not None:
-        q, obj_T, obj_parent = state_inputs(compiled.tables, state)
-        for i in symbols:
-            atom = gp.atoms[i]
-            formula = compiled.predicate(atom.predicate[:-len(SYMBOL)])
-            kernel, _ = compiled.kernels(formula)
-            if bool(kernel(q, obj_T, obj_parent, compiled.bind_args(formula, list(atom.args)))[0]):
-                sym |= 1 << i
+    if symbols:
+        sym |= true_symbols(gp, compiled.scene, compiled.model, compiled.program.scope,
+                            state.poses)
     return sym
 
 

@@ -24,9 +24,8 @@ def tower_world():
 
 
 def test_goal_atoms_over_movable_objects_become_symbols(tower_world):
-    from tmpc.compiler.compile import compile_world
-    compiled = compile_world(tower_world)
-    gp = compiled.ground
+    from tmpc.runtime.problem import PlanningProblem
+    gp = PlanningProblem(tower_world).ground         # the symbols that hold at the start set
     symbols = {gp.atom_name(i) for i, a in enumerate(gp.atoms) if is_symbol(a.predicate)}
     assert {f"(on{SYMBOL} c b)", f"(on{SYMBOL} b a)", f"(on{SYMBOL} a bench)"} <= symbols
     # a rests on the bench in the scene: its symbol holds at the start, the others do not
