@@ -116,7 +116,7 @@ class CompiledProgram:
     def ground(self):
         """The grounded problem (:class:`~tmpc.compiler.ground.GroundProblem`). Its geometric
         symbols (:mod:`tmpc.compiler.ground.symbols`) start false: which hold where a plan
-        starts is the runtime's to decide (:func:`tmpc.runtime.evaluate.true_symbols`)."""
+        starts is the runtime's to decide (:func:`tmpc.runtime.problem.true_symbols`)."""
         return ground_program(self.program)
 
     @cached_property

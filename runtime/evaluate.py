@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tmpc.compiler.ground import SYMBOL, is_symbol
 from tmpc.compiler.robot import RobotModel, homogeneous
 from tmpc.compiler.rotations import quat_from_matrix, quat_matrix, rpy_of
 from tmpc.lang import ast as A
@@ -395,27 +394,3 @@ _EXTENT = {
     "mesh": _mesh_extent,
 }
 
-
-def true_symbols(ground, scene: Scene, model: RobotModel | None, scope,
-                 poses: dict[str, np.ndarray]) -> int:
-    """The bitset of ``ground``'s geometric symbols (:mod:`tmpc.compiler.ground.symbols`) whose
-    atom holds with the free objects at ``poses`` (world 4x4 by name), by this interpreter: no
-    kernel is loaded for it. An atom naming an object not in ``poses`` (a held one), or one this
-    interpreter cannot evaluate (a Lua predicate, one reading a robot frame), counts as false."""
-    out = 0
-    ev = Evaluator(scene, model, None, None, poses, scope)
-    known = {k.lower() for k in poses}
-    for i, atom in enumerate(ground.atoms):
-        if not is_symbol(atom.predicate):
-            continue
-        decl = scope.predicates.get(atom.predicate[:-len(SYMBOL)].lower())
-        if decl is None or decl.semantics is None or \
-                any(a.lower() not in known for a in atom.args):
-            continue
-        env = {p.name.key: Obj(a) for p, a in zip(decl.params, atom.args)}
-        try:
-            if bool(ev.value(decl.semantics, env)):
-                out |= 1 << i
-        except InputError:
-            continue
-    return out

@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tmpc.compiler.compile import compile_world
-from tmpc.compiler.ground import geo_atoms
+from tmpc.compiler.ground import SYMBOL, geo_atoms, is_symbol
 from tmpc.compiler.kernels import state_inputs
-from tmpc.runtime.evaluate import true_symbols
+from tmpc.runtime.evaluate import Evaluator, Obj
 from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
 from tmpc.compiler.robot import Frames
@@ -220,7 +220,7 @@ class PlanningProblem:
 
     def with_start_symbols(self, ground, state: WorldState):
         """``ground`` with its geometric symbols true where they hold at ``state``'s object
-        poses (:func:`tmpc.runtime.evaluate.true_symbols`)."""
+        poses (:func:`true_symbols`)."""
         bits = true_symbols(ground, self.world.scene, self.model, self.world.program.scope,
                             state.poses)
         return ground.with_init(ground.init | bits) if bits else ground
@@ -541,3 +541,27 @@ def _needs_geo(action) -> bool:
 
 def _has_geo(f) -> bool:
     return next(geo_atoms(f), None) is not None
+
+
+def true_symbols(ground, scene, model, scope, poses: dict[str, np.ndarray]) -> int:
+    """The bitset of ``ground``'s geometric symbols (:mod:`tmpc.compiler.ground.symbols`) whose
+    atom holds with the free objects at ``poses`` (world 4x4 by name), by this interpreter: no
+    kernel is loaded for it. An atom naming an object not in ``poses`` (a held one), or one this
+    interpreter cannot evaluate (a Lua predicate, one reading a robot frame), counts as false."""
+    out = 0
+    ev = Evaluator(scene, model, None, None, poses, scope)
+    known = {k.lower() for k in poses}
+    for i, atom in enumerate(ground.atoms):
+        if not is_symbol(atom.predicate):
+            continue
+        decl = scope.predicates.get(atom.predicate[:-len(SYMBOL)].lower())
+        if decl is None or decl.semantics is None or \
+                any(a.lower() not in known for a in atom.args):
+            continue
+        env = {p.name.key: Obj(a) for p, a in zip(decl.params, atom.args)}
+        try:
+            if bool(ev.value(decl.semantics, env)):
+                out |= 1 << i
+        except InputError:
+            continue
+    return out

@@ -8,8 +8,8 @@ from typing import Any
 from tmpc.compiler.ground import is_symbol
 from tmpc.compiler.state import WorldState
 from tmpc.lang.diagnostics import InputError, error
-from tmpc.runtime.evaluate import true_symbols
 from tmpc.runtime.plans import parse_ground
+from tmpc.runtime.problem import true_symbols
 
 
 def start_symbols(compiled: Any, state: WorldState, from_atoms: bool = True) -> int:
