@@ -96,26 +96,11 @@ def _coverage(cam: Camera, tris: np.ndarray, ids: np.ndarray, n: int) -> np.ndar
         (sy.max(1) >= lo_y) & (sy.min(1) <= hi_y)
     sx, sy, cz, ids = sx[keep], sy[keep], cz[keep], ids[keep]
     zbuf, idbuf = np.zeros((H, W)), np.full((H, W), -1)
-    inv = 1.0 / cz
-    x0 = np.clip(np.floor(sx.min(1)), 0, W).astype(int)
-    x1 = np.clip(np.ceil(sx.max(1)) + 1, 0, W).astype(int)
-    y0 = np.clip(np.floor(sy.min(1)), 0, H).astype(int)
-    y1 = np.clip(np.ceil(sy.max(1)) + 1, 0, H).astype(int)
-    for k in np.nonzero((x1 > x0) & (y1 > y0))[0]:
-        px = np.arange(x0[k], x1[k]) + 0.5
-        py = (np.arange(y0[k], y1[k]) + 0.5)[:, None]
-        (ax, bx, qx), (ay, by, qy) = sx[k], sy[k]
-        area = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
-        if abs(area) < 1e-12:
-            continue
-        w0 = ((bx - px) * (qy - py) - (by - py) * (qx - px)) / area
-        w1 = ((qx - px) * (ay - py) - (qy - py) * (ax - px)) / area
-        w2 = 1.0 - w0 - w1
-        depth = w0 * inv[k, 0] + w1 * inv[k, 1] + w2 * inv[k, 2]
-        zb = zbuf[y0[k]:y1[k], x0[k]:x1[k]]
-        win = (w0 >= 0) & (w1 >= 0) & (w2 >= 0) & (depth > zb)
+    for k, box, inside, depth in _fragments(sx, sy, cz, W, H):
+        zb = zbuf[box]
+        win = inside & (depth > zb)
         zb[win] = depth[win]
-        idbuf[y0[k]:y1[k], x0[k]:x1[k]][win] = ids[k]
+        idbuf[box][win] = ids[k]
     return np.bincount(idbuf[idbuf >= 0].ravel(), minlength=n)[:n]
 
 
@@ -215,29 +200,11 @@ def render(tris: np.ndarray, cols: np.ndarray, size: tuple[int, int], azimuth: f
     img = np.empty((H, W, 3))
     img[:] = BACKGROUND
     zbuf = np.zeros((H, W))                                      # 1/depth: larger is nearer
-    inv = 1.0 / cz
-    x0 = np.clip(np.floor(sx.min(1)), 0, W).astype(int)
-    x1 = np.clip(np.ceil(sx.max(1)) + 1, 0, W).astype(int)
-    y0 = np.clip(np.floor(sy.min(1)), 0, H).astype(int)
-    y1 = np.clip(np.ceil(sy.max(1)) + 1, 0, H).astype(int)
-    for k in np.nonzero((x1 > x0) & (y1 > y0))[0]:
-        px = np.arange(x0[k], x1[k]) + 0.5
-        py = (np.arange(y0[k], y1[k]) + 0.5)[:, None]
-        (ax, bx, qx), (ay, by, qy) = sx[k], sy[k]
-        area = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
-        if abs(area) < 1e-12:
-            continue
-        w0 = ((bx - px) * (qy - py) - (by - py) * (qx - px)) / area
-        w1 = ((qx - px) * (ay - py) - (qy - py) * (ax - px)) / area
-        w2 = 1.0 - w0 - w1
-        inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
-        if not inside.any():
-            continue
-        depth = w0 * inv[k, 0] + w1 * inv[k, 1] + w2 * inv[k, 2]
-        zb = zbuf[y0[k]:y1[k], x0[k]:x1[k]]
+    for k, box, inside, depth in _fragments(sx, sy, cz, W, H):
+        zb = zbuf[box]
         win = inside & (depth > zb)
         zb[win] = depth[win]
-        img[y0[k]:y1[k], x0[k]:x1[k]][win] = rgb[k]
+        img[box][win] = rgb[k]
     if supersample > 1:
         img = img.reshape(size[1], supersample, size[0], supersample, 3).mean((1, 3))
     return np.round(img * 255).astype(np.uint8)
@@ -278,6 +245,32 @@ def camera(pts: np.ndarray, size: tuple[int, int], azimuth: float, elevation: fl
     t = math.tan(fov / 2)
     dist = max(hy / t, hx / (t * W / H)) * 1.08 - z.min()
     return Camera(center - f * dist, side, up, f, (H / 2) / t, (W, H))
+
+
+def _fragments(sx: np.ndarray, sy: np.ndarray, cz: np.ndarray, W: int, H: int):
+    """The pixels of each triangle (screen corners ``sx``, ``sy`` and depths ``cz``, (T, 3)
+    each) in a W x H picture: ``(k, box, inside, depth)`` with ``box`` the (rows, columns)
+    slices of its bounding box, ``inside`` the pixels (centres) it covers there and ``depth``
+    their interpolated 1/depth (larger is nearer)."""
+    inv = 1.0 / cz
+    x0 = np.clip(np.floor(sx.min(1)), 0, W).astype(int)
+    x1 = np.clip(np.ceil(sx.max(1)) + 1, 0, W).astype(int)
+    y0 = np.clip(np.floor(sy.min(1)), 0, H).astype(int)
+    y1 = np.clip(np.ceil(sy.max(1)) + 1, 0, H).astype(int)
+    for k in np.nonzero((x1 > x0) & (y1 > y0))[0]:
+        px = np.arange(x0[k], x1[k]) + 0.5
+        py = (np.arange(y0[k], y1[k]) + 0.5)[:, None]
+        (ax, bx, qx), (ay, by, qy) = sx[k], sy[k]
+        area = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+        if abs(area) < 1e-12:
+            continue
+        w0 = ((bx - px) * (qy - py) - (by - py) * (qx - px)) / area
+        w1 = ((qx - px) * (ay - py) - (qy - py) * (ax - px)) / area
+        w2 = 1.0 - w0 - w1
+        inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
+        if inside.any():
+            depth = w0 * inv[k, 0] + w1 * inv[k, 1] + w2 * inv[k, 2]
+            yield k, (slice(y0[k], y1[k]), slice(x0[k], x1[k])), inside, depth
 
 
 def _shade(tris: np.ndarray, eye: np.ndarray) -> np.ndarray:
