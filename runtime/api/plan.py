@@ -50,9 +50,10 @@ class Plan:
         """The planner's statistics (time, iterations, ...) and the setup seconds."""
         return dict(self.document["stats"])
 
-    def to_json(self) -> dict[str, Any]:
-        """The ``tmpc-plan/1`` document (a JSON-able dict, as ``tmpc run -o`` writes)."""
-        return json.loads(json.dumps(self.document))
+    def to_json(self) -> str:
+        """The ``tmpc-plan/1`` document as JSON text (what ``tmpc run -o`` writes; the dict
+        is :attr:`document`)."""
+        return json.dumps(self.document, indent=1)
 
     def write(self, path: str | Path) -> None:
         """Write the plan file (atomically), as ``tmpc run -o`` does."""
