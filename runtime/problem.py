@@ -29,14 +29,14 @@ import numpy as np
 from tmpc.compiler.compile import compile_world
 from tmpc.compiler.ground import SYMBOL, geo_atoms, is_symbol
 from tmpc.compiler.kernels import state_inputs
-from tmpc.runtime.evaluate import Evaluator, Obj
-from tmpc.runtime.explain import Evidence
-from tmpc.runtime.setup_checks import SetupChecks
 from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, prepare_kernel
+from tmpc.runtime.evaluate import Evaluator, Obj
+from tmpc.runtime.explain import Evidence
+from tmpc.runtime.setup_checks import SetupChecks
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)
 PROJECTION_BATCH = 16
