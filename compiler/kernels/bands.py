@@ -5,7 +5,10 @@ A condition like ``rests-on``'s gap, ``(and ... (>= g 0) (<= g 0.008))``, holds 
 [0, 8 mm]; projection stops at the first configuration where it holds, which is the edge it
 came from (a released object 8 mm up). :func:`inner_bands` rewrites, inside each ``and``, every
 pair of constant bounds on the same expression (``lo <= x``, ``x <= hi``, ``hi > lo``) to the
-middle quarter of the band, ``[lo + 3w/8, hi - 3w/8]``. Only the projector's *distance* uses the
+middle quarter of the band, ``[lo + 3w/8, hi - 3w/8]``; and every alignment, ``(>= (dot u v)
+(cos tol))`` with ``u`` and ``v`` unit vectors (the stdlib's ``aligned``, ``upright``), a band
+[0, tol] on the angle, to its first quarter, ``(cos tol/4)`` (a released object upright, not
+tilted by the whole tolerance). Only the projector's *distance* uses the
 rewritten condition: its truth test, and every other kernel, keep the original, so what holds is
 unchanged and a start that reaches the band but not its middle within the iterations still
 counts.
@@ -34,7 +37,8 @@ def inner_bands(node: ir.Node, positive: bool = True) -> ir.Node:
             args = tuple(inner_bands(a, positive) for a in node.args)
         if node.op == "and" and positive:
             args = _narrowed(args)
-        return ir.Op(node.op, args, node.vtype) if args != node.args else node
+        out = ir.Op(node.op, args, node.vtype) if args != node.args else node
+        return (_alignment(out) or out) if positive else out
     if isinstance(node, ir.If):
         return ir.If(node.cond, inner_bands(node.then, positive),
                      inner_bands(node.orelse, positive))
@@ -58,6 +62,23 @@ def _bound(n: ir.Node):
             not isinstance(b, ir.Const):
         return b, float(a.value), "lo" if upper else "hi"
     return None
+
+
+def _alignment(n: ir.Node) -> ir.Node | None:
+    """``(>= (dot u v) (cos tol/4))`` for an alignment ``(>= (dot u v) (cos tol))`` of unit
+    vectors (each divided by its norm) and a constant ``tol``; None for anything else."""
+    if not (isinstance(n, ir.Op) and n.op == "ge" and isinstance(n.args[0], ir.Op)
+            and n.args[0].op == "dot" and isinstance(n.args[1], ir.Op)
+            and n.args[1].op == "cos" and isinstance(n.args[1].args[0], ir.Const)):
+        return None
+    if not all(isinstance(v, ir.Op) and v.op == "div" and isinstance(v.args[1], ir.Op)
+               and v.args[1].op == "norm" for v in n.args[0].args):
+        return None
+    tol = n.args[1].args[0]
+    if not isinstance(tol.value, float | int) or tol.value <= 0:
+        return None
+    cos = ir.Op("cos", (ir.Const(float(tol.value) / 4, tol.vtype),), n.args[1].vtype)
+    return ir.Op("ge", (n.args[0], cos), n.vtype)
 
 
 def _narrowed(parts: tuple[ir.Node, ...]) -> tuple[ir.Node, ...]:

@@ -50,3 +50,16 @@ def test_released_cubes_rest_in_the_middle_of_rests_on_gap(tabletop_world):
     assert len(gaps) >= 10
     q1, median, q3 = np.percentile(gaps, [25, 50, 75])
     assert 2.0 <= q1 and q3 <= 6.5 and 3.0 <= median <= 5.5, np.round(gaps, 2)
+
+
+def test_an_alignment_aims_at_a_quarter_of_its_tolerance():
+    """`aligned` (upright, a grasp's approach): (>= (dot u/|u| v/|v|) (cos tol)) is a band
+    [0, tol] on the angle; projection aims at tol/4, once (not again in an enclosing `and`)."""
+    def unit(v):
+        return ir.op("div", [v, ir.op("norm", [v], ir.SCALAR)], ir.VEC3)
+    u, v = ir.Const((0.0, 0.0, 1.0), ir.VEC3), ir.Const((0.1, 0.0, 1.0), ir.VEC3)
+    aligned = ir.op("ge", [ir.op("dot", [unit(u), unit(v)], ir.SCALAR),
+                           ir.op("cos", [ir.Const(0.08)], ir.SCALAR)], ir.BOOL)
+    both = inner_bands(ir.op("and", [aligned, _gap_band()], ir.BOOL))
+    assert both.args[0].args[1] == ir.op("cos", [ir.Const(0.02)], ir.SCALAR)
+    assert inner_bands(ir.op("not", [aligned], ir.BOOL)).args[0] == aligned
