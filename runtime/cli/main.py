@@ -227,9 +227,9 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
     elif name == "run":
         p.add_argument("input", metavar="INPUT", help="a run configuration (manifest TOML, planet "
                        "TOML, tmit-star spec JSON) or a compiled artifact (.tmpa)")
-        p.add_argument("--planner", default="optimal", choices=sorted(PLANNERS),
-                       help="planner (default: optimal; it stops at its first solution unless "
-                       "--time-limit is given, which it then spends improving): " + "; ".join(
+        p.add_argument("--planner", default=None, choices=sorted(PLANNERS),
+                       help="planner (default: optimal, stopping at its first solution; "
+                       "`--planner optimal` improves its plan until the time limit): " + "; ".join(
                            f"{k}: {v.summary}" for k, v in sorted(PLANNERS.items())))
         p.add_argument("--seed", type=COUNT, default=0, help="random seed (default 0)")
         p.add_argument("--time-limit", type=SECONDS, default=None, metavar="S",
@@ -252,8 +252,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        help="optimal: scales the k-nearest neighbours and the transition "
                        "radius (default 1)")
         p.add_argument("--first-solution", action="store_true",
-                       help="optimal: stop at the first solution (as tmit-star without -o; the "
-                       "default unless --time-limit is given)")
+                       help="optimal: stop at the first solution (as tmit-star without -o; what "
+                       "the default planner does)")
         p.add_argument("--until-converged", action="store_true",
                        help="optimal: stop once the best cost of the last 10 searches "
                        "varies by at most 10%%")
