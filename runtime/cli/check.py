@@ -72,21 +72,25 @@ def _setup_errors(report) -> list:
     """What `tmpc run`'s setup would reject in each run configuration (:mod:`tmpc.runtime.
     setup_checks`: unknown objects, missing support regions, static objects held, an unreachable
     goal, the start's limits and collisions), by grounding, the robot's kinematics and fcl; no
-    kernel is compiled."""
+    kernel is compiled. The program is the one just checked (not parsed and checked again)."""
     out = []
     if not report.workspace.configs:
         return out
-    from tmpc.lang.inputs import load_world
+    from tmpc.lang.inputs import World
+    from tmpc.lang.world import load_scene, mesh_search_dirs
     from tmpc.runtime.setup_checks import setup_diagnostics
     for config in report.workspace.configs:
+        program = config_program(config, report.programs)
+        if program is None:
+            continue
         try:
-            world = load_world(config.path)
+            scene = load_scene(config.scene, mesh_dir=config.mesh_dir, strict_meshes=False,
+                               mesh_fallback_dirs=mesh_search_dirs())
         except TmpcError as exc:
             report.workspace.files.update(exc.files)
             out.extend(exc.diagnostics)
             continue
-        report.workspace.files.update(world.files)
-        out.extend(setup_diagnostics(world))
+        out.extend(setup_diagnostics(World(scene, config, program)))
     return out
 
 
