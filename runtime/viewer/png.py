@@ -49,11 +49,10 @@ def write_png(world, plan_dict, path, state_index: int | None = None,
     moved = _moved(world.scene, states)
     az, frame = heading(st["T_root"]) + CAMERA_YAW, tris
     elevation = math.radians(26)
-    if moved:
+    nodes = {poser.object_nodes[name] for name in moved if name in poser.object_nodes}
+    if nodes:
         # frame what the plan moves, with a margin so its surroundings show, from the side
         # where the robot hides the least of it
-        nodes = {poser.scene3d.nodes.index(name) for name in moved
-                 if name in poser.scene3d.nodes}
         targets = [_triangles(poser.scene3d, P, {k})[0] for k in sorted(nodes)]
         robot, _ = _triangles(poser.scene3d, P, set(poser.link_nodes.values()))
         frame = _padded(np.concatenate(targets), 0.2)
@@ -130,7 +129,7 @@ def _labels(scene, poser, P, frame, size, az, elevation) -> list[tuple[str, floa
     cam = camera(frame.reshape(-1, 3), size, az, elevation)
     out = []
     for o in scene.objects:
-        node = poser.scene3d.nodes.index(o.name) if o.name in poser.scene3d.nodes else None
+        node = poser.object_nodes.get(o.name)
         if not o.movable or node is None:
             continue
         x, y, z = cam.project(P[node][:3, 3][None])
