@@ -174,7 +174,7 @@ class CompiledProgram:
         if act is None:
             raise InputError(error("E587", f"unknown action `{name}`", None))
         atoms = []
-        for lit in _conjuncts(act.precondition):
+        for lit in A.conjuncts(act.precondition):
             atom, positive = (lit.part, False) if isinstance(lit, A.Not) else (lit, True)
             if not isinstance(atom, A.Atom):
                 continue
@@ -455,14 +455,6 @@ class _Untraceable:
     files: dict = field(default_factory=dict)
     #: the :class:`~tmpc.compiler.lua_trace.LuaFallback` evaluating it
     fallback: object = None
-
-
-def _conjuncts(f):
-    if f is None:
-        return []
-    if isinstance(f, A.And):
-        return [x for p in f.parts for x in _conjuncts(p)]
-    return [f]
 
 
 def substitute(node: ir.Node, mapping: dict[int, ir.Node]) -> ir.Node:

@@ -156,6 +156,15 @@ class Quantified:
 
 Formula = Union[Atom, Equals, Compare, And, Or, Not, Imply, Quantified]
 
+
+def conjuncts(f: "Formula | None") -> list["Formula"]:
+    """The top-level conjuncts of ``f``, nested ``and``s flattened (none for no formula)."""
+    if f is None:
+        return []
+    if isinstance(f, And):
+        return [x for p in f.parts for x in conjuncts(p)]
+    return [f]
+
 # ---------------------------------------------------------------------------------------------
 # Effects
 

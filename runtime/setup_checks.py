@@ -142,7 +142,7 @@ class SetupChecks:
         if self.ground.goal_relaxed_reachable:
             return []
         goal = self.program.problem.goal
-        culprits = [lit for lit in _conjuncts(goal) if isinstance(lit, A.Atom)
+        culprits = [lit for lit in A.conjuncts(goal) if isinstance(lit, A.Atom)
                     and not self._ever_true(lit)]
         return [error("E824", "the goal is unreachable: even ignoring delete effects and "
                       "geometry, no sequence of actions makes it true"
@@ -201,7 +201,7 @@ class SetupChecks:
         s0 = initial_state(scene, self.model)
         ev = Evaluator(scene, self.model, None, None, s0.poses, scope)
         out = []
-        for lit in _conjuncts(self.program.problem.goal):
+        for lit in A.conjuncts(self.program.problem.goal):
             atom, positive = (lit.part, False) if isinstance(lit, A.Not) else (lit, True)
             decl = scope.predicates.get(atom.pred.key) if isinstance(atom, A.Atom) else None
             if decl is None or decl.kind is not A.Kind.GEOMETRIC or decl.semantics is None:
@@ -261,14 +261,6 @@ def raise_setup_errors(world) -> None:
     diagnostics = setup_diagnostics(world)
     if diagnostics:
         raise InputError(diagnostics, world.files)
-
-
-def _conjuncts(f):
-    if isinstance(f, A.And):
-        for p in f.parts:
-            yield from _conjuncts(p)
-    elif f is not None:
-        yield f
 
 
 def _atom_text(a: A.Atom) -> str:

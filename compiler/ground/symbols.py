@@ -66,7 +66,7 @@ def symbol_atoms(program: CheckedProgram, movable: set[str], frames: set[str]) -
     out: list[SymbolAtom] = []
     if program.problem is None or program.problem.goal is None:
         return out
-    for lit in _conjuncts(program.problem.goal):
+    for lit in A.conjuncts(program.problem.goal):
         if not isinstance(lit, A.Atom):
             continue
         decl = program.scope.predicates.get(lit.pred.key)
@@ -121,14 +121,6 @@ def with_geometric_symbols(program: CheckedProgram, movable: set[str],
 
 
 # ---- pieces ---------------------------------------------------------------------------------
-def _conjuncts(f):
-    if isinstance(f, A.And):
-        for p in f.parts:
-            yield from _conjuncts(p)
-    else:
-        yield f
-
-
 def _effect_literals(e):
     if isinstance(e, A.AndEffect):
         for p in e.parts:
@@ -202,7 +194,7 @@ def _with_effects(act: A.Action, effects: list) -> A.Action:
 
 def _own_literals(act: A.Action, x: A.Typed, pred: A.PredicateDecl) -> list[A.Atom]:
     """Positive top-level literals of ``pred`` in ``act``'s precondition that name ``x``."""
-    return [lit for lit in _conjuncts(act.precondition) if isinstance(lit, A.Atom)
+    return [lit for lit in A.conjuncts(act.precondition) if isinstance(lit, A.Atom)
             and lit.pred.key == pred.name.key
             and any(isinstance(t, A.Var) and t.name.key == x.name.key for t in lit.args)]
 
