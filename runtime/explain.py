@@ -127,17 +127,16 @@ def _unreached_goal_atoms(problem, ev: Evidence) -> list[dict]:
     for i in sorted(ground.goal.pos):
         if ev.reached_atoms >> i & 1:
             continue
-        atom = ground.atom_name(i)
-        adders = [a.name for a in ground.actions
-                  if a.add_mask >> i & 1 or any(ce.add_mask >> i & 1 for ce in a.conditional)]
-        shown = atom.replace(SYMBOL, "")
-        tried = [n for n in dict.fromkeys(adders) if ev.attempts.get(n) is not None]
-        out.append({
-            "kind": "goal-atom", "atom": shown,
-            "message": f"the goal atom {shown} was never reached"
-                       + (f": the actions that make it true ({', '.join(list(dict.fromkeys(adders))[:3])}) "
-                          "were never applied" if adders else ": no action makes it true"),
-            "adders": list(dict.fromkeys(adders)), "adders_tried": tried})
+        shown = ground.atom_name(i).replace(SYMBOL, "")
+        # as plans name them: a geometric symbol's variants show as their action, once
+        adders = list(dict.fromkeys(
+            a.name for a in ground.actions
+            if a.add_mask >> i & 1 or any(ce.add_mask >> i & 1 for ce in a.conditional)))
+        why = (f": the actions that make it true ({', '.join(adders[:3])}) were never applied"
+               if adders else ": no action makes it true")
+        out.append({"kind": "goal-atom", "atom": shown,
+                    "message": f"the goal atom {shown} was never reached{why}",
+                    "adders": adders, "adders_tried": [n for n in adders if n in ev.attempts]})
     return out
 
 
