@@ -20,6 +20,7 @@ meets them (:data:`SETUP_CODES`):
 from __future__ import annotations
 
 import difflib
+from functools import cached_property
 
 import numpy as np
 
@@ -54,17 +55,16 @@ class SetupChecks:
                           f"give the scene ({self.world.scene.path}) a `robot`")]
         return []
 
-    def _known(self, name: str) -> bool:
-        """A scene object or a robot frame (a link, or a joint naming its child link)? Names
-        compare without case, as the kernels' entity table does."""
-        if not hasattr(self, "_lower_names"):
-            self._lower_names = {n.lower() for n in self._names()}
-        return name.lower() in self._lower_names
+    @cached_property
+    def _known_names(self) -> frozenset[str]:
+        """Scene objects and robot frames (links, and joints naming their child links), lower
+        case: names compare without case, as the kernels' entity table does."""
+        return frozenset(n.lower() for n in self._names())
 
     def objects(self) -> list[Diagnostic]:
         """E822, one per object, at its declaration (the problem's, or the domain's constant)."""
         missing = sorted({a.lower() for g in self.ground.geometric for a in g.args
-                          if not self._known(a)})
+                          if a.lower() not in self._known_names})
         out = []
         for key in missing:
             info = self.scope.objects.get(key)
