@@ -344,6 +344,9 @@ class Action:
     precondition: Formula | None
     effect: Effect | None
     span: Span = field(**_SPAN)
+    #: in a semantics module: the object the action carries (it is split into a grasp and a
+    #: release, docs/language.md "Semantics modules")
+    carries: "Var | None" = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -376,9 +379,14 @@ class Domain:
     actions: tuple[Action, ...] = ()
     derived: tuple[Derived, ...] = ()
     dialect: Dialect = Dialect.PDDL
-    #: "domain" for planning domains, "module" for stdlib/helper modules.
+    #: "domain" for planning domains, "module" for stdlib/helper modules, "semantics" for a
+    #: semantics module (meanings for a classical domain's predicates and actions)
     form: str = "domain"
     span: Span = field(**_SPAN)
+    #: a semantics module's `(:domain NAME)`: the domain it gives meaning to
+    target: Name | None = None
+    #: a semantics module's `(:hand FRAME)`: the robot frame that holds (``?hand`` in the module)
+    hand: Name | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -78,6 +78,12 @@ _TABLE = (
     Code("E122", ERROR, "a module defines actions"),
     Code("E123", ERROR, "an `:include` names a module that does not exist"),
     Code("E124", ERROR, "a module includes itself"),
+    Code("E125", ERROR, "a semantics module is malformed: no `(define (semantics ...))`, or a "
+                        "kinematic parent or carried action without the module's `(:hand FRAME)`"),
+    Code("E126", ERROR, "a semantics module gives a predicate another number of arguments than "
+                        "the domain declares"),
+    Code("E127", ERROR, "a semantics module names an action the domain does not have"),
+    Code("E128", ERROR, "`:carries` names no parameter of the action"),
 
     # Names and types
     Code("E200", ERROR, "unknown predicate (or a derived predicate not declared in `:predicates`)"),
@@ -208,6 +214,10 @@ _TABLE = (
                           "as planet's clutter_nohit does): read as a robot frame or scene object"),
 
     # Scenes and configurations
+    Code("W019", WARNING, "a semantics module's note: another domain name, ignored action "
+                          "parameters, or an `:init` atom of a predicate the scene now decides"),
+    Code("W020", WARNING, "a classical PDDL file's last `(define` is not closed at the end of the "
+                          "file (tolerated)"),
     Code("E500", ERROR, "malformed JSON (with the position; trailing commas, comments, single "
                         "quotes, NaN, a key given twice)"),
     Code("E501", ERROR, "malformed XML in a planet scene"),

@@ -67,7 +67,8 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
         scene = load_scene(path, report=report, mesh_fallback_dirs=fallback)
     world = World(scene, config, files=dict(report.files), warnings=list(report.warnings))
     if config is not None and with_program:
-        checked = check_paths([config.domain, config.problem])
+        sem = {str(Path(config.problem).resolve()): config.module} if config.module else None
+        checked = check_paths([config.domain, config.problem], semantics=sem)
         world.files.update(checked.workspace.files)
         if not checked.ok:
             raise CheckError([d for d in checked.diagnostics if d.is_error],

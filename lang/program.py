@@ -25,6 +25,7 @@ from tmpc.lang.diagnostics import (
 )
 from tmpc.lang.lua import arity_diagnostic, load_lua_predicates, lua_limits
 from tmpc.lang.reader import ParsedFile, parse_source
+from tmpc.lang.semantics_module import apply_semantics
 from tmpc.lang.source import SourceFile, Span
 from tmpc.lang.world import (
     LoadReport,
@@ -260,9 +261,13 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
     return []
 
 
-def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckReport:
-    """Parse and check files. Raises :class:`InputError` only for unreadable PDDL files."""
+def check_paths(paths: list[str | Path], ws: Workspace | None = None,
+                semantics: dict[str, Path] | None = None) -> CheckReport:
+    """Parse and check files. Raises :class:`InputError` only for unreadable PDDL files.
+    ``semantics``: problem file -> the semantics module that gives its domain meaning (run
+    configurations read here add theirs)."""
     ws = ws or Workspace()
+    semantics = dict(semantics or {})
     world_diags: list[Diagnostic] = []
     pddl = []
     for p in paths:
@@ -273,9 +278,11 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None) -> CheckRe
             world_diags += _check_world_file(Path(p), ws)
             for config in ws.configs[before:]:
                 pddl += [config.domain, config.problem]
+                if getattr(config, "module", None) is not None:
+                    semantics[str(Path(config.problem).resolve())] = config.module
         else:
             pddl.append(p)
-    report = check_parsed(ws, [ws.load(p) for p in dict.fromkeys(pddl)])
+    report = check_parsed(ws, [ws.load(p) for p in dict.fromkeys(pddl)], semantics)
     report.diagnostics[:0] = world_diags
     if ws.configs and report.ok:
         report.diagnostics += _check_semantics(ws, report.programs)
@@ -329,21 +336,49 @@ def _check_semantics(ws: Workspace, programs) -> list[Diagnostic]:
     return out
 
 
-def check_parsed(ws: Workspace, parsed: list[ParsedFile]) -> CheckReport:
+def check_parsed(ws: Workspace, parsed: list[ParsedFile],
+                 semantics: dict[str, Path] | None = None) -> CheckReport:
     diags: list[Diagnostic] = [d for p in parsed for d in p.diagnostics]
     checked: list[CheckedProgram] = []
     sources: list[Program] = []
     # Programs are checked even when a file has syntax errors, so an editor sees name and type
     # errors next to them (the reader returns a partial tree).
     for prog in build_programs(ws, parsed, diags):
-        modules = resolve_includes(ws, prog.domain, diags)
-        prog = Program(prog.domain, prog.problem, modules)
+        sem_path = (semantics or {}).get(str(Path(prog.problem.span.path).resolve())) \
+            if prog.problem is not None and prog.problem.span is not None else None
+        if sem_path is not None:
+            prog = _with_semantics(ws, prog, Path(sem_path), diags)
+            if prog is None:
+                continue
+        else:
+            prog = Program(prog.domain, prog.problem, resolve_includes(ws, prog.domain, diags))
         sources.append(prog)
         result, pdiags = prog.check()
         diags.extend(pdiags)
         if result is not None:
             checked.append(result)
     return CheckReport(ws, _dedupe(diags), checked, sources)
+
+
+def _with_semantics(ws: Workspace, prog: Program, path: Path,
+                    diags: list[Diagnostic]) -> Program | None:
+    """``prog`` with the semantics module at ``path`` applied (docs/language.md, "Semantics
+    modules"); None when the file holds no semantics module."""
+    parsed = ws.load(path)
+    diags.extend(parsed.diagnostics)
+    sem = next((d for d in parsed.definitions if isinstance(d, A.Domain)
+                and d.form == "semantics"), None)
+    if sem is None:
+        diags.append(error("E125", f"{path} holds no `(define (semantics NAME) ...)`",
+                           Span(str(path), 0, 0) if str(path) in ws.files else None,
+                           "a semantics module starts `(define (semantics NAME) (:domain D) "
+                           "...)`; Lua predicate files end in .lua"))
+        return None
+    domain, problem, module, more = apply_semantics(prog.domain, prog.problem, sem)
+    diags.extend(more)
+    modules = resolve_includes(ws, module, diags) + (module,) + \
+        resolve_includes(ws, prog.domain, diags)
+    return Program(domain, problem, modules)
 
 
 def load_checked(paths: list[str | Path]) -> CheckedProgram:

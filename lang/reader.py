@@ -29,6 +29,8 @@ from tmpc.lang.reader_formulas import FormulaReader
 from tmpc.lang.sexpr import Packed, SAtom, SExpr, SexprDoc, SList, depth_error, parse_sexpr
 from tmpc.lang.source import SourceFile, Span
 
+#: what `(define (KIND NAME) ...)` may define
+DEFINITION_KINDS = ("domain", "problem", "module", "semantics")
 PROBLEM_ONLY = frozenset({":domain", ":objects", ":init", ":goal", ":metric"})
 DOMAIN_ONLY = frozenset({":types", ":constants", ":predicates", ":functions", ":action",
                          ":derived", ":include", ":define"})
@@ -62,7 +64,22 @@ def parse_source(source: SourceFile) -> ParsedFile:
     diags = sink.items
     if any(getattr(d, "dialect", None) in LEGACY_DIALECTS for d in defs):
         diags = [_legacy_tolerated(d) for d in diags]
+    if defs and not any(getattr(d, "dialect", None) is A.Dialect.TMPC for d in defs):
+        diags = [_unclosed_define_tolerated(d, source) for d in diags]
     return ParsedFile(source, defs, diags, doc)
+
+
+def _unclosed_define_tolerated(d: Diagnostic, source: SourceFile) -> Diagnostic:
+    """A classical or legacy file whose last `(define` is not closed at the end of the file
+    (the Lagriffoul suite's blocks-world problems): the repaired tree is unambiguous, so it is
+    a warning (W020); any other missing `)` stays an error."""
+    if d.code != "E001" or d.span is None or not d.related or \
+            d.span.end < len(source.text.rstrip()):
+        return d
+    if not source.text[d.related[0].span.start:].startswith("(define"):
+        return d
+    return warning("W020", "the last `(define` is not closed: a `)` is missing at the end of "
+                   "the file (tolerated in a classical PDDL file)", d.span, d.hint, d.related)
 
 
 @contextmanager
@@ -127,11 +144,11 @@ class Reader(FormulaReader):
         what, nm = x.items[1].items
         kind = sym(what)
         name = self.name(nm, f"a {kind or 'definition'} name")
-        if kind not in ("domain", "problem", "module") or name is None:
-            if kind not in ("domain", "problem", "module"):
-                self.err("E101", f"expected `domain`, `problem` or `module`, found {describe(what)}",
-                         what.span, suggest(what.text if is_sym(what) else "",
-                                            ("domain", "problem", "module")))
+        if kind not in DEFINITION_KINDS or name is None:
+            if kind not in DEFINITION_KINDS:
+                self.err("E101", "expected `domain`, `problem`, `module` or `semantics`, found "
+                         f"{describe(what)}", what.span,
+                         suggest(what.text if is_sym(what) else "", DEFINITION_KINDS))
             return None
         if kind == "problem":
             return self.problem(name, x)
@@ -183,13 +200,20 @@ class Reader(FormulaReader):
     def domain(self, name: A.Name, x: SList, form: str) -> A.Domain:
         allowed = ("", ":requirements", ":types", ":constants", ":predicates", ":functions",
                    ":include", ":define", ":action", ":derived")
+        target = hand = None
+        if form == "semantics":
+            allowed += (":domain", ":hand")
         parts: dict[str, list] = {k: [] for k in ("requirements", "types", "constants",
                                                    "predicates", "functions", "includes",
                                                    "defines", "actions", "derived")}
         raw_preds: list[tuple[A.PredicateDecl, set[str]]] = []
-        for kw, sec in self._sections(x, allowed, PROBLEM_ONLY, form):
+        other = PROBLEM_ONLY - {":domain"} if form == "semantics" else PROBLEM_ONLY
+        for kw, sec in self._sections(x, allowed, other, form):
             body = sec.items[1:]
-            if kw == ":requirements":
+            if kw in (":domain", ":hand"):
+                one = self._one_name(sec, kw)
+                target, hand = (one, hand) if kw == ":domain" else (target, one)
+            elif kw == ":requirements":
                 parts["requirements"] += self.requirements(body)
             elif kw == ":types":
                 parts["types"] += self.types(body)
@@ -206,7 +230,7 @@ class Reader(FormulaReader):
                 if d:
                     parts["defines"].append(d)
             elif kw == ":action":
-                a = self.action(sec)
+                a = self.action(sec, form == "semantics")
                 if a:
                     parts["actions"].append(a)
             elif kw == ":derived":
@@ -218,7 +242,14 @@ class Reader(FormulaReader):
         return A.Domain(name, tuple(parts["requirements"]), tuple(parts["types"]),
                         tuple(parts["constants"]), preds, tuple(parts["functions"]),
                         tuple(parts["includes"]), tuple(parts["defines"]), tuple(parts["actions"]),
-                        tuple(parts["derived"]), dialect, form, span=x.span)
+                        tuple(parts["derived"]), dialect, form, span=x.span, target=target,
+                        hand=hand)
+
+    def _one_name(self, sec: SList, kw: str) -> A.Name | None:
+        if len(sec.items) != 2:
+            self.err("E117", f"`({kw} NAME)` takes one name", sec.span)
+            return None
+        return self.name(sec.items[1], "a domain name" if kw == ":domain" else "a frame name")
 
     def requirements(self, items) -> list[A.Requirement]:
         out = []
@@ -386,7 +417,7 @@ class Reader(FormulaReader):
         body = self.formula(sec.items[2])
         return A.Derived(sig[0], sig[1], body, span=sec.span) if body else None
 
-    def action(self, sec: SList) -> A.Action | None:
+    def action(self, sec: SList, semantics: bool = False) -> A.Action | None:
         if len(sec.items) < 2:
             self.err("E117", "`:action` needs a name", sec.span)
             return None
@@ -404,7 +435,7 @@ class Reader(FormulaReader):
                 i += 1
                 continue
             k = sym(key) if is_keyword(key) else None
-            if k not in K.ACTION_KEYS:
+            if k not in K.ACTION_KEYS and not (semantics and k == ":carries"):
                 if k is not None:
                     self.err("E106", f"unknown key `{key.text}` in action `{nm.text}`", key.span,
                              suggest(k, K.ACTION_KEYS) or "keys are :parameters, :precondition, "
@@ -427,7 +458,12 @@ class Reader(FormulaReader):
             else:
                 values[k] = (key, items[i + 1])
             i += 2
-        return self._build_action(nm, values, sec)
+        act = self._build_action(nm, values, sec)
+        if ":carries" in values:
+            v = self.var(values[":carries"][1], "the ?parameter the action carries")
+            act = A.Action(act.name, act.params, act.precondition, act.effect, span=act.span,
+                           carries=A.Var(v, span=v.span) if v is not None else None)
+        return act
 
     def _build_action(self, nm: A.Name, values, sec: SList) -> A.Action:
         params: tuple[A.Typed, ...] = ()

@@ -534,11 +534,23 @@ def _indent_of(tok: Token, line_indent: dict[int, int]) -> int:
     return line_indent.get(tok.line, tok.column - 1)
 
 
+def _visual_columns(tokens: list[Token], source: SourceFile) -> list[int]:
+    """Each token's 0-based column as an editor shows it: a tab moves to the next multiple of 8
+    (a line indented with a tab is deeper than one indented with four spaces)."""
+    lines = source.text.split("\n")
+    out = []
+    for tok in tokens:
+        line = lines[tok.line - 1] if 0 < tok.line <= len(lines) else ""
+        prefix = line[:tok.column - 1]
+        out.append(len(prefix.expandtabs(8)) if "\t" in prefix else tok.column - 1)
+    return out
+
+
 def _repair(tokens: list[Token], source: SourceFile) -> tuple[list[Token], list[Diagnostic]]:
     deficit, surplus = _balance(tokens)
     diags: list[Diagnostic] = []
     for _ in range(surplus):
-        idx = _find_extra_close(tokens)
+        idx = _find_extra_close(tokens, _visual_columns(tokens, source))
         if idx is None:
             break
         diags.append(_extra_close_diag(tokens[idx], source, guessed=True))
@@ -548,8 +560,7 @@ def _repair(tokens: list[Token], source: SourceFile) -> tuple[list[Token], list[
     line_indent: dict[int, int] = {}
     starts = _line_starts(tokens)
     remaining_deficit = _balance(tokens)[0]
-    for tok, first in zip(tokens, starts):
-        col = tok.column - 1
+    for tok, first, col in zip(tokens, starts, _visual_columns(tokens, source)):
         if first:
             line_indent[tok.line] = col
             starts_item = tok.type == "LPAR" or (tok.type == "SYMBOL" and tok.startswith(":"))
@@ -575,7 +586,7 @@ def _repair(tokens: list[Token], source: SourceFile) -> tuple[list[Token], list[
     return out, diags
 
 
-def _find_extra_close(tokens: list[Token]) -> int | None:
+def _find_extra_close(tokens: list[Token], cols: list[int]) -> int | None:
     """Index of the `)` that most likely is one too many, by indentation; else the first unmatched.
 
     A line that starts deeper than the first line-starting child of the innermost open list (or
@@ -585,8 +596,7 @@ def _find_extra_close(tokens: list[Token]) -> int | None:
     stack: list[_Open] = [root]
     line_indent: dict[int, int] = {}
     prev_close: int | None = None
-    for i, (tok, first) in enumerate(zip(tokens, _line_starts(tokens))):
-        col = tok.column - 1
+    for i, (tok, first, col) in enumerate(zip(tokens, _line_starts(tokens), cols)):
         if first:
             line_indent[tok.line] = col
             top = stack[-1]

@@ -239,8 +239,8 @@ def _native(r: TomlReader) -> RunConfig:
     r.finish()
     paths: dict[str, Path] = {}
     what = {"domain": "PDDL domain", "problem": "PDDL problem", "scene": "scene file",
-            "semantics": "Lua predicate file", "allowed_collisions": "allowed-collision CSV",
-            "mesh_dir": "mesh directory"}
+            "semantics": "semantics module (.tmpc) or Lua predicate file",
+            "allowed_collisions": "allowed-collision CSV", "mesh_dir": "mesh directory"}
     for key in (*_PROBLEM_KEYS[0], *_PROBLEM_KEYS[1]):
         if key in prob:
             with r.part():
@@ -260,9 +260,13 @@ def _native(r: TomlReader) -> RunConfig:
             elif key in PLANNER_PARAMS:
                 params.append((key, _param(r, full, value, PLANNER_PARAMS[key][0])))
     r.finish()
+    # `semantics` names a native semantics module (.tmpc) or a legacy Lua predicate file
+    semantics = paths.get("semantics")
+    module = semantics if semantics is not None and semantics.suffix.lower() == ".tmpc" else None
     return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
-                     paths.get("semantics"), paths.get("allowed_collisions"),
-                     paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml")
+                     None if module else semantics, paths.get("allowed_collisions"),
+                     paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml",
+                     module=module)
 
 
 def _positive(r: Reader, key: str, x: float) -> float:

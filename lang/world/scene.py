@@ -171,6 +171,8 @@ class RunConfig:
     output: Path | None = None
     #: "tmpc-toml" | "planet-toml" | "tmit-star-json"
     format: str = "tmpc-toml"
+    #: a native semantics module (``semantics = "x.tmpc"``): meanings for a classical domain
+    module: Path | None = None
 
 
 #: the penetration depth (m) the legacy planners ignored, by run-configuration format
