@@ -140,6 +140,10 @@ class _Text:
             return f"{_AXIS[int(a[1].value)]}-axis({self.val(a[0])})"
         if o == "support":
             return f"support-region({self.val(a[0])})"
+        if o == "support_local":
+            return f"local-support({self.val(a[0])})"
+        if o in ("grasp_point", "grasp_axis", "grasp_hand_axis", "stable_up"):
+            return f"{o.replace('_', '-')}({self.val(a[0])})"
         if o == "lua":
             return f"lua {self.val(a[0])}({', '.join(self.val(x) for x in a[1:])})"
         if n.type == ir.BOOL:

@@ -139,7 +139,12 @@ OPS = {
     "rotate": "(quat, vec3) -> vec3", "relative": "(transform a, transform b) -> vec3",
     "rpy": "transform|quat -> vec3", "quat_of": "quat passthrough",
     "extent": "entity -> vec3 (static)", "support": "entity -> box (world frame, enclosing)",
-    "support_local": "entity -> box in the entity's own frame (static; legacy Lua surfaces)",
+    "support_local": "entity -> box in the entity's own frame (static)",
+    "grasp_point": "entity -> vec3: its first grasp set's template origin, object frame (static)",
+    "grasp_axis": "entity -> vec3: that grasp set's rotation axis, object frame (static)",
+    "grasp_hand_axis": "entity -> vec3: that axis in the template's (the hand's) frame (static)",
+    "stable_up": "entity -> vec3: its object-frame direction that stands along its stable "
+                 "pose's axis (static)",
     "base": "-> transform of the robot root",
     "same": "(entity, entity) -> bool, static identity",
     # boxes

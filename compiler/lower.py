@@ -113,8 +113,14 @@ _BUILTIN_NAMES = frozenset({
     "+", "-", "*", "/", *_UNARY, "pow", "atan2", "min", "max", "clamp", "vec3", "norm", "norm1",
     "dot", "cross", "distance", "x", "y", "z", "position", "orientation", "transform", "rpy",
     "roll", "pitch", "yaw", "x-axis", "y-axis", "z-axis", "rotate", "relative", "extent",
-    "support-region", "base", "box", "grow", "lower", "upper", "center", "inside", "<", "<=",
+    "support-region", "local-support", "grasp-point", "grasp-axis", "grasp-hand-axis",
+    "stable-up", "base", "box", "grow", "lower", "upper", "center", "inside", "<", "<=",
     ">", ">=", "=", "and", "or", "not", "implies"})
+
+
+#: static per-object vectors read from the scene (docs/language.md, "Scene data"): DSL name -> IR op
+SCENE_VECTOR_OPS = {"grasp-point": "grasp_point", "grasp-axis": "grasp_axis",
+                    "grasp-hand-axis": "grasp_hand_axis", "stable-up": "stable_up"}
 
 
 def _fold(name: str, args: list[ir.Node]) -> ir.Node:
@@ -189,6 +195,10 @@ def builtin(name: str, args: list[ir.Node]) -> ir.Node:
         return ir.op("extent", args, VEC3)
     if name == "support-region":
         return ir.op("support", args, BOX)
+    if name == "local-support":
+        return ir.op("support_local", args, BOX)
+    if name in SCENE_VECTOR_OPS:
+        return ir.op(SCENE_VECTOR_OPS[name], args, VEC3)
     if name == "base":
         return ir.op("base", (), TRANSFORM)
     if name == "box":

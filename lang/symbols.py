@@ -144,6 +144,12 @@ BUILTINS: dict[str, tuple[Signature, ...]] = {
     "joint": (_sig(JOINT_NAME, S),),
     "extent": (_sig("object", V),),
     "support-region": (_sig("object", B),),
+    # scene data of the Lagriffoul suite's format (stdlib/lagriffoul.tmpc), object frame
+    "local-support": (_sig("object", B),),
+    "grasp-point": (_sig("object", V),),
+    "grasp-axis": (_sig("object", V),),
+    "grasp-hand-axis": (_sig("object", V),),
+    "stable-up": (_sig("object", V),),
     "base": (_sig("", T),),
     # boxes
     "box": (_sig("vec3 vec3", B),),
@@ -168,7 +174,8 @@ STATE_ACCESSORS = frozenset({
 #: Per-axis components: static when applied to a static vector, state when applied to an object.
 COMPONENTS = frozenset({"x", "y", "z"})
 #: Accessors that read only fixed scene data (static within a problem).
-STATIC_ACCESSORS = frozenset({"extent", "support-region"})
+STATIC_ACCESSORS = frozenset({"extent", "support-region", "local-support", "grasp-point",
+                              "grasp-axis", "grasp-hand-axis", "stable-up"})
 
 EXPR_SPECIAL_FORMS = ("let", "if", "forall", "exists")
 NUMBER_CONSTANTS = {"pi": 3.141592653589793, "inf": float("inf")}

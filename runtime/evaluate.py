@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tmpc.compiler.kernels.tables import scene_vectors
 from tmpc.compiler.robot import RobotModel, homogeneous
 from tmpc.compiler.rotations import quat_from_matrix, quat_matrix, rpy_of
 from tmpc.lang import ast as A
@@ -240,6 +241,21 @@ class Evaluator:
         world = corners @ T[:3, :3].T + T[:3, 3]
         return AABB(world.min(0), world.max(0))
 
+    def local_support(self, o: Obj, e) -> AABB:
+        obj = self.scene.object(o.name)
+        if obj is None or obj.support is None:
+            raise _fail(f"`{o.name}` has no support region in the scene", e,
+                        "surfaces declare `support` (tmit-star: `surface_bounds`, planet: `sssp`)")
+        return AABB(np.array(obj.support.lower, float), np.array(obj.support.upper, float))
+
+    def scene_vector(self, key: str, o: Obj, e) -> np.ndarray:
+        obj = self.scene.object(o.name)
+        v = scene_vectors(obj)[key] if obj is not None else np.full(3, np.nan)
+        if np.isnan(v).any():
+            what = "grasp set (<grasps>)" if key.startswith("grasp") else "stable pose (<sop>)"
+            raise _fail(f"`{o.name}` has no {what} in the scene", e)
+        return v
+
 
 def _show(v) -> str:
     if isinstance(v, Obj):
@@ -353,6 +369,11 @@ _OPS = {
                                                                            1.0))[:3],
     "extent": lambda ev, e, o: ev.extent(o, e),
     "support-region": lambda ev, e, o: ev.support(o, e),
+    "local-support": lambda ev, e, o: ev.local_support(o, e),
+    "grasp-point": lambda ev, e, o: ev.scene_vector("grasp_point", o, e),
+    "grasp-axis": lambda ev, e, o: ev.scene_vector("grasp_axis", o, e),
+    "grasp-hand-axis": lambda ev, e, o: ev.scene_vector("grasp_hand_axis", o, e),
+    "stable-up": lambda ev, e, o: ev.scene_vector("stable_up", o, e),
     "base": lambda ev, e: ev.T_frames[ev.model.frame(ev.model.tree.root)].copy(),
     "box": lambda ev, e, lo, hi: AABB(_vec(lo), _vec(hi)),
     "grow": _grow,

@@ -363,6 +363,14 @@ _VALUE_OPS = {
     "extent": lambda em, n, e: em.jnp.asarray(em.world.extents)[_a(em, n, e)],
     "support": lambda em, n, e: _support_world(em, _a(em, n, e)),
     "support_local": lambda em, n, e: tuple(em.jnp.asarray(em.world.support_local)[_a(em, n, e)]),
+    "grasp_point": lambda em, n, e: em.jnp.asarray(em.world.scene_vectors["grasp_point"])[
+        _a(em, n, e)],
+    "grasp_axis": lambda em, n, e: em.jnp.asarray(em.world.scene_vectors["grasp_axis"])[
+        _a(em, n, e)],
+    "grasp_hand_axis": lambda em, n, e: em.jnp.asarray(em.world.scene_vectors["grasp_hand_axis"])[
+        _a(em, n, e)],
+    "stable_up": lambda em, n, e: em.jnp.asarray(em.world.scene_vectors["stable_up"])[
+        _a(em, n, e)],
     "base": lambda em, n, e: (em.R[em.world.entity(em.world.model.tree.root)],
                               em.p[em.world.entity(em.world.model.tree.root)]),
     "box": lambda em, n, e: (_a(em, n, e, 0), _a(em, n, e, 1)),

@@ -32,6 +32,8 @@ class KernelTables:
     support_local: np.ndarray
     #: PDDL type (lower case) -> entity ids of the problem's objects of that type
     domains: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    #: :data:`SCENE_VECTORS` name -> (E, 3) per-entity vectors (NaN where the scene gives none)
+    scene_vectors: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n_objects(self) -> int:
@@ -57,6 +59,43 @@ _EXTENT = {
 }
 
 
+#: the static per-object vectors the DSL reads (``grasp-point`` ...): IR op names
+SCENE_VECTORS = ("grasp_point", "grasp_axis", "grasp_hand_axis", "stable_up")
+
+
+def _quat_matrix(q) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def scene_vectors(obj) -> dict[str, np.ndarray]:
+    """An object's static vectors from the suite's XML data (object frame; absent: NaN):
+    ``grasp_point`` the first grasp set's template origin, ``grasp_axis`` its rotation axis (a
+    discrete grasp: the template's own z), ``grasp_hand_axis`` that axis seen from the hand
+    (the template's rotation transposed times the axis: a hand pose in the set sees the axis
+    the same way), ``stable_up`` the object-frame direction its first stable pose stands along
+    the pose's axis (the template transposed times the axis)."""
+    nan = np.full(3, np.nan)
+    out = {k: nan for k in SCENE_VECTORS}
+    grasps = getattr(obj, "grasps", ())
+    if grasps:
+        g = grasps[0]
+        R = _quat_matrix(g.template.rotation)
+        axis = np.asarray(g.axis if g.axis is not None else R[:, 2], float)
+        axis = axis / (np.linalg.norm(axis) or 1.0)
+        out["grasp_point"] = np.asarray(g.template.translation, float)
+        out["grasp_axis"] = axis
+        out["grasp_hand_axis"] = R.T @ axis
+    stable = getattr(obj, "stable_poses", ())
+    if stable:
+        s = stable[0]
+        a = np.asarray(s.axis, float)
+        out["stable_up"] = _quat_matrix(s.template).T @ (a / (np.linalg.norm(a) or 1.0))
+    return out
+
+
 def _extent(shape) -> tuple[float, float, float]:
     if shape is None:
         return (0.0, 0.0, 0.0)
@@ -76,15 +115,19 @@ def build_tables(scene: Scene, model: RobotModel | None, scope=None) -> KernelTa
     E = len(names)
     extents = np.zeros((E, 3))
     support = np.full((E, 2, 3), np.nan)
+    vectors = {k: np.full((E, 3), np.nan) for k in SCENE_VECTORS}
     for k, o in enumerate(scene.objects):
         i = len(frames) + k
         extents[i] = _extent(o.shape)
         if o.support is not None:
             support[i, 0], support[i, 1] = o.support.lower, o.support.upper
+        for key, v in scene_vectors(o).items():
+            vectors[key][i] = v
     domains: dict[str, tuple[int, ...]] = {}
     if scope is not None:
         for type_key in scope.types.parents:
             members = [ids[info.name.key] for info in scope.objects.values()
                        if info.name.key in ids and scope.compatible(info.types, (type_key,))]
             domains[type_key] = tuple(sorted(set(members)))
-    return KernelTables(model, scene, names, ids, len(frames), extents, support, domains)
+    return KernelTables(model, scene, names, ids, len(frames), extents, support, domains,
+                        vectors)
