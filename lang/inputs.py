@@ -5,19 +5,22 @@ by ``tmpc.compiler.artifact.open_world``, which extracts it and loads the extrac
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from tmpc.lang.diagnostics import CheckError, InputError, SceneError, error
 from tmpc.lang.program import check_paths
+from tmpc.lang.semantics_module import HAND_TYPE
 from tmpc.lang.world import (
     LoadReport,
     RunConfig,
     Scene,
+    hand_chain,
     is_run_config,
     load_allowed_pairs,
     load_config,
     load_scene,
+    load_urdf,
     mesh_search_dirs,
 )
 
@@ -74,7 +77,25 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
             raise CheckError([d for d in checked.diagnostics if d.is_error],
                              checked.workspace.files)
         world.program = checked.programs[0] if checked.programs else None
+        world.scene = _hand_arm(world.scene, world.program)
     return world
+
+
+def _hand_arm(scene: Scene, program) -> Scene:
+    """A semantics module's hand (a ``tmpc-hand`` constant) moves its arm: when the scene names
+    no controllable joints, they are the joints from the robot's root to the hand (a PR2 then
+    plans with one arm and its torso, not with both arms and its head)."""
+    robot = scene.robot
+    if program is None or robot is None or robot.controllable is not None:
+        return scene
+    hands = [c.name.text for c in program.domain.constants
+             if c.type is not None and any(n.key == HAND_TYPE for n in c.type.names)]
+    if not hands:
+        return scene
+    chain = hand_chain(load_urdf(robot.urdf, strict_meshes=False), hands[0])
+    if not chain:
+        return scene
+    return replace(scene, robot=replace(robot, controllable=chain))
 
 
 __all__ = ["World", "load_world", "SceneError"]

@@ -340,3 +340,20 @@ def tree_from_data(d: dict) -> KinematicTree:
                          Mimic(str(j["mimic"][0]), float(j["mimic"][1]), float(j["mimic"][2])))
                    for j in d["joints"])
     return KinematicTree(str(d["name"]), str(d["root"]), links, joints, str(d["path"]))
+
+
+def hand_chain(tree: KinematicTree, frame: str) -> tuple[str, ...]:
+    """The movable, non-mimic joints from the root of ``tree`` to ``frame`` (a link or joint
+    name), root first: the arm that moves a hand. Empty when ``frame`` is not in the tree."""
+    joints = {j.child: j for j in tree.joints}
+    named = tree.joint(frame)
+    link = named.child if named is not None else frame
+    if tree.link(link) is None:
+        return ()
+    out: list[str] = []
+    while link in joints:
+        j = joints[link]
+        if j.movable and j.mimic is None:
+            out.append(j.name)
+        link = j.parent
+    return tuple(reversed(out))
