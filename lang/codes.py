@@ -255,6 +255,11 @@ _TABLE = (
                         "`tmpc-scene/1`)"),
     Code("E520", ERROR, "a position (object, robot base, workspace bound) more than 10 km from "
                         "the origin: a typo or a unit mix-up"),
+    Code("E521", ERROR, "a planet `<attachments>` name that names no object of the scene (with a "
+                        '"did you mean")'),
+    Code("E522", ERROR, "a planet object attached to itself, to two objects, or attachments "
+                        "forming a loop"),
+    Code("E523", ERROR, "a planet grasp or stable-pose axis that is the zero vector"),
     Code("W301", WARNING, "a division by a constant zero in a `:semantics` or `:define` body: the "
                         "value is always +inf, -inf or nan"),
     Code("W500", WARNING, "an unknown key or XML element in a legacy file: ignored, as the "
@@ -271,6 +276,9 @@ _TABLE = (
     Code("W506", WARNING, "a planet scene with more than one `<robot>`: only the first is used"),
     Code("W507", WARNING, "a run configuration's `output` that cannot be written (no such folder, "
                         "no permission): `tmpc run` refuses it before planning"),
+    Code("W508", WARNING, "a planet scene's `pr2.urdf` that does not exist: example-robot-data's "
+                          "PR2 model is used (the message names the file)"),
+    Code("W509", WARNING, "a planet grasp set whose `type` is not `side` or `top`: kept as written"),
 
     # Robots
     Code("E560", ERROR, "a URDF (path or `package://` URI) that cannot be found; the hint lists "

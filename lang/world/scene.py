@@ -101,6 +101,33 @@ class Box:
 
 
 @dataclass(frozen=True, slots=True)
+class GraspSet:
+    """A set of grasps of an object (Lagriffoul XML ``<grasps>``): ``template`` is a frame of the
+    gripper's tool in the object's frame (object -> tool). A continuous set (``<gc>``) is every
+    rotation of the template about ``axis`` (a unit vector in the object's frame, through its
+    origin); a discrete one (``<gf>``) is the template alone (``axis`` None). ``kind`` is the
+    ``type`` attribute as written, lower case (``side``, ``top``; ``""`` when absent)."""
+
+    kind: str
+    template: Pose
+    axis: Vec3 | None = None
+    origin: Origin | None = field(**_NO_ORIGIN)
+
+
+@dataclass(frozen=True, slots=True)
+class StablePose:
+    """A set of stable orientations of an object (Lagriffoul XML ``<sop>``): the rotation
+    ``template`` (the object's orientation resting on a horizontal surface) turned by any angle
+    about ``axis`` (a unit vector, world frame once placed), with the object's origin
+    ``distance`` above the support surface."""
+
+    template: Quat
+    axis: Vec3
+    distance: float
+    origin: Origin | None = field(**_NO_ORIGIN)
+
+
+@dataclass(frozen=True, slots=True)
 class SceneObject:
     name: str
     pose: Pose
@@ -111,6 +138,13 @@ class SceneObject:
     #: the object's pose is relative to this object/robot frame (None: the world)
     parent: str | None = None
     origin: Origin | None = field(**_NO_ORIGIN)
+    #: how it can be grasped (Lagriffoul XML ``<grasps>``); empty: not said
+    grasps: tuple[GraspSet, ...] = ()
+    #: its stable orientations (Lagriffoul XML ``<sop>``); empty: not said
+    stable_poses: tuple[StablePose, ...] = ()
+    #: the objects initially resting on it (Lagriffoul XML ``<attachments>``); their poses are
+    #: still in the world frame (``parent`` stays None)
+    attachments: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,6 +207,9 @@ class RunConfig:
     format: str = "tmpc-toml"
     #: a native semantics module (``semantics = "x.tmpc"``): meanings for a classical domain
     module: Path | None = None
+    #: the native manifest's ``[names]``: (PDDL name, scene name) pairs, in file order; the scene
+    #: loaded for this configuration calls each scene object by its PDDL name
+    names: tuple[tuple[str, str], ...] = ()
 
 
 #: the penetration depth (m) the legacy planners ignored, by run-configuration format
