@@ -121,6 +121,16 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
             obj["support"] = {"lower": list(o.support.lower), "upper": list(o.support.upper)}
         if o.parent is not None:
             obj["parent"] = o.parent
+        if o.grasps:
+            obj["grasps"] = [{"kind": g.kind, "template": {
+                "translation": list(g.template.translation),
+                "rotation": list(g.template.rotation)},
+                "axis": list(g.axis) if g.axis is not None else None} for g in o.grasps]
+        if o.stable_poses:
+            obj["stable_poses"] = [{"rotation": list(s.template), "axis": list(s.axis),
+                                    "distance": s.distance} for s in o.stable_poses]
+        if o.attachments:
+            obj["attachments"] = list(o.attachments)
         objects.append(obj)
     # Legacy blocklists name links some URDFs lack (their planners skipped those); the native
     # scene format is strict, so only pairs naming real things are carried over.
@@ -170,12 +180,16 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
            "problem": members.add("src/problem.pddl", Path(cfg.problem).read_bytes())}
     if cfg.semantics is not None:
         src["semantics"] = members.add("src/predicates.lua", Path(cfg.semantics).read_bytes())
+    if cfg.module is not None:
+        src["module"] = members.add("src/semantics.tmpc", Path(cfg.module).read_bytes())
     scene = normalized_scene(members, world.scene, world.allowed_pairs())
     members.add("src/scene.json", json.dumps(scene, indent=1).encode())
     run = ['[problem]', 'domain = "domain.pddl"', 'problem = "problem.pddl"',
            'scene = "scene.json"']
     if "semantics" in src:
         run.append('semantics = "predicates.lua"')
+    if "module" in src:
+        run.append('semantics = "semantics.tmpc"')
     members.add("src/run.toml", ("\n".join(run) + "\n").encode())
     compiled = compile_world(world)
     compiled.register_kernels(run_only)

@@ -25,7 +25,16 @@ from tmpc.lang.world.reader import (
     join_hints,
     read_json_scene,
 )
-from tmpc.lang.world.scene import Box, Pose, RobotSpec, Scene, SceneObject, Shape
+from tmpc.lang.world.scene import (
+    Box,
+    GraspSet,
+    Pose,
+    RobotSpec,
+    Scene,
+    SceneObject,
+    Shape,
+    StablePose,
+)
 
 NATIVE_SCENE_FORMAT = "tmpc-scene/1"
 
@@ -102,7 +111,8 @@ _SHAPE_KEYS = {"box": (("half_extents",), ()), "sphere": (("radius",), ()),
 
 
 def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Entry:
-    v = r.obj(ptr, value, ("name", "pose"), ("movable", "shape", "support", "parent"))
+    v = r.obj(ptr, value, ("name", "pose"), ("movable", "shape", "support", "parent", "grasps",
+                                             "stable_poses", "attachments"))
     name = r.pddl_name(f"{ptr}/name", v["name"])
     pose = r.pose(f"{ptr}/pose", v["pose"], False)
     movable = r.boolean(f"{ptr}/movable", v.get("movable", False))
@@ -121,8 +131,55 @@ def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> E
                        [Related(r.span(f"{ptr}/support/lower/{i}"), "lower bound")])
         support = Box((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2]))
     parent = r.pddl_name(f"{ptr}/parent", v["parent"]) if v.get("parent") is not None else None
-    obj = SceneObject(name, pose, movable, shape, support, parent, r.origin(r.span(ptr), ptr))
+    obj = SceneObject(name, pose, movable, shape, support, parent, r.origin(r.span(ptr), ptr),
+                      grasps=_native_grasps(r, f"{ptr}/grasps", v.get("grasps", [])),
+                      stable_poses=_native_stable(r, f"{ptr}/stable_poses",
+                                                  v.get("stable_poses", [])),
+                      attachments=tuple(r.pddl_name(f"{ptr}/attachments/{i}", a) for i, a in
+                                        enumerate(r.array(f"{ptr}/attachments",
+                                                          v.get("attachments", []),
+                                                          "an array of object names"))))
     return Entry(obj, r.span(f"{ptr}/name"), r.span(f"{ptr}/parent") if parent else None)
+
+
+def _unit(r: JsonReader, ptr: str, value: Any, what: str) -> tuple[float, float, float]:
+    v = r.numbers(ptr, value, 3, what)
+    n = sum(x * x for x in v) ** 0.5
+    if n < 1e-9:
+        r.fail("E507", r.span(ptr), f"{ptr}: {what} is the zero vector", "give a direction")
+    return (v[0] / n, v[1] / n, v[2] / n)
+
+
+def _native_grasps(r: JsonReader, ptr: str, value: Any) -> tuple[GraspSet, ...]:
+    """``[{"kind": "side", "template": {pose}, "axis": [x, y, z] | null}, ...]`` (docs/world.md)."""
+    out = []
+    for i, g in enumerate(r.array(ptr, value, "an array of grasp sets")):
+        p = f"{ptr}/{i}"
+        v = r.obj(p, g, ("template",), ("kind", "axis"))
+        axis = _unit(r, f"{p}/axis", v["axis"], "a grasp set's axis") \
+            if v.get("axis") is not None else None
+        out.append(GraspSet(r.string(f"{p}/kind", v.get("kind", "")),
+                            r.pose(f"{p}/template", v["template"], False), axis,
+                            r.origin(r.span(p), p)))
+    return tuple(out)
+
+
+def _native_stable(r: JsonReader, ptr: str, value: Any) -> tuple[StablePose, ...]:
+    """``[{"rotation": [x, y, z, w], "axis": [x, y, z], "distance": d}, ...]``."""
+    out = []
+    for i, s in enumerate(r.array(ptr, value, "an array of stable poses")):
+        p = f"{ptr}/{i}"
+        v = r.obj(p, s, ("rotation", "axis"), ("distance",))
+        q = r.numbers(f"{p}/rotation", v["rotation"], 4, "a quaternion [x, y, z, w]")
+        n = sum(x * x for x in q) ** 0.5
+        if abs(n - 1) > 1e-3:
+            r.fail("E509", r.span(f"{p}/rotation"), f"{p}/rotation: not a unit quaternion "
+                   f"(norm {fmt_num(n)})", "give [x, y, z, w] of norm 1")
+        out.append(StablePose((q[0] / n, q[1] / n, q[2] / n, q[3] / n),
+                              _unit(r, f"{p}/axis", v["axis"], "a stable pose's axis"),
+                              r.number(f"{p}/distance", v.get("distance", 0.0)),
+                              r.origin(r.span(p), p)))
+    return tuple(out)
 
 
 def _native_shape(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Shape:
