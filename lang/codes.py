@@ -250,6 +250,10 @@ _TABLE = (
     Code("E522", ERROR, "a planet object attached to itself, to two objects, or attachments "
                         "forming a loop"),
     Code("E523", ERROR, "a planet grasp or stable-pose axis that is the zero vector"),
+    Code("E524", ERROR, "a run manifest's `[names]` entry naming no object of the scene (with a "
+                        '"did you mean")'),
+    Code("E525", ERROR, "a run manifest's `[names]` giving one scene object two PDDL names, or a "
+                        "PDDL name that another scene object already has"),
     Code("W301", WARNING, "a division by a constant zero in a `:semantics` or `:define` body: the "
                         "value is always +inf, -inf or nan"),
     Code("W500", WARNING, "an unknown key or XML element in a legacy file: ignored, as the "
