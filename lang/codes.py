@@ -273,6 +273,8 @@ _TABLE = (
     Code("W508", WARNING, "a planet scene's `pr2.urdf` that does not exist: example-robot-data's "
                           "PR2 model is used (the message names the file)"),
     Code("W509", WARNING, "a planet grasp set whose `type` is not `side` or `top`: kept as written"),
+    Code("W510", WARNING, "a PDDL problem file that ends before the `)` closing its `(define`: "
+                          "closed at the end of the file (the Lagriffoul suite's problems)"),
 
     # Robots
     Code("E560", ERROR, "a URDF (path or `package://` URI) that cannot be found; the hint lists "
