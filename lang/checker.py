@@ -68,6 +68,8 @@ class Checker:
         self.legacy = domain.dialect in LEGACY
         self.exprs = ExprChecker(self.scope, self.sink)
         self._type_sets: dict[tuple[str, ...], tuple[str, ...]] = {}
+        #: undeclared constants read as robot frames (W018), by key
+        self._frames: set[str] = set()
 
     # ---- driver --------------------------------------------------------------------------
     def run(self) -> list[Diagnostic]:
@@ -371,6 +373,8 @@ class Checker:
             used.add(t.name.key)
             return env[t.name.key]
         info = self.scope.objects.get(t.name.key)
+        if info is not None and t.name.key in self._frames:
+            return None          # a W018 robot frame: it takes the type each use wants
         in_domain = self.problem is None or not self._in_problem(t.span)
         if info is not None and in_domain and not info.constant:
             self.sink.add(warning("W013", f"the domain uses `{t.name.text}`, an object of the "
@@ -396,17 +400,29 @@ class Checker:
     def _planet_frame(self, t: A.Const) -> None:
         """planet's domains name robot links as constants they never declare (its
         clutter_nohit.pddl: ``l_upper_arm_link``). The name becomes an untyped constant: W018
-        once, no type check, never an action's argument; the scene resolves it (a robot frame or
-        an object, else E822 at run time)."""
+        once, no type check at any use (it takes the type the parameter wants: planet's
+        ``donthits ?l - link``), never an action's argument; the scene resolves it (a robot
+        frame or an object, else E822 at run time)."""
         self.sink.add(warning("W018", f"`{t.name.text}` is not declared; as in planet, it is read "
                               "as a robot frame or scene object", t.span,
                               "declare it in `(:constants ...)` to give it a type"))
         self.scope.objects[t.name.key] = ObjectInfo(t.name, (), constant=True)
+        self._frames.add(t.name.key)
         return None
+
+    def _lenient_init(self) -> bool:
+        """Are init facts naming undeclared objects W015 (ignored) rather than E206? In legacy
+        files, and in classical ones that use types without declaring `:typing` (written for
+        planners that checked nothing: the Lagriffoul suite's blocksworld_pb_C.pddl has
+        `(clear d)`)."""
+        return self.legacy or (
+            self.domain.dialect is A.Dialect.PDDL and "typing" in self.uses.seen and
+            ":typing" not in {r.name.key for r in self.domain.requirements})
 
     def _unknown_objects(self, item: A.Atom) -> bool:
         """Legacy init facts naming undeclared objects (tmit-star's clutter pb_11 has them) are
-        ignored with a warning, as the original planners did; the grounder drops them too."""
+        ignored with a warning, as the original planners did; the grounder drops them too
+        (:meth:`_lenient_init` says which files)."""
         bad = [t for t in item.args if isinstance(t, A.Const) and
                t.name.key not in self.scope.objects]
         for t in bad:
@@ -479,7 +495,7 @@ class Checker:
 
     # ---- problem ---------------------------------------------------------------------------
     def _check_init_item(self, item: A.InitItem, env: dict) -> None:
-        if isinstance(item, A.Atom) and self.legacy and self._unknown_objects(item):
+        if isinstance(item, A.Atom) and self._lenient_init() and self._unknown_objects(item):
             return
         if isinstance(item, A.Atom):
             decl = self.check_atom(item, env, set(), "init")

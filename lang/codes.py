@@ -216,8 +216,6 @@ _TABLE = (
     # Scenes and configurations
     Code("W019", WARNING, "a semantics module's note: another domain name, ignored action "
                           "parameters, or an `:init` atom of a predicate the scene now decides"),
-    Code("W020", WARNING, "a classical PDDL file's last `(define` is not closed at the end of the "
-                          "file (tolerated)"),
     Code("E500", ERROR, "malformed JSON (with the position; trailing commas, comments, single "
                         "quotes, NaN, a key given twice)"),
     Code("E501", ERROR, "malformed XML in a planet scene"),
@@ -260,6 +258,10 @@ _TABLE = (
     Code("E522", ERROR, "a planet object attached to itself, to two objects, or attachments "
                         "forming a loop"),
     Code("E523", ERROR, "a planet grasp or stable-pose axis that is the zero vector"),
+    Code("E524", ERROR, "a run manifest's `[names]` entry naming no object of the scene (with a "
+                        '"did you mean")'),
+    Code("E525", ERROR, "a run manifest's `[names]` giving one scene object two PDDL names, or a "
+                        "PDDL name that another scene object already has"),
     Code("W301", WARNING, "a division by a constant zero in a `:semantics` or `:define` body: the "
                         "value is always +inf, -inf or nan"),
     Code("W500", WARNING, "an unknown key or XML element in a legacy file: ignored, as the "
@@ -279,6 +281,8 @@ _TABLE = (
     Code("W508", WARNING, "a planet scene's `pr2.urdf` that does not exist: example-robot-data's "
                           "PR2 model is used (the message names the file)"),
     Code("W509", WARNING, "a planet grasp set whose `type` is not `side` or `top`: kept as written"),
+    Code("W510", WARNING, "a PDDL problem file that ends before the `)` closing its `(define`: "
+                          "closed at the end of the file (the Lagriffoul suite's problems)"),
 
     # Robots
     Code("E560", ERROR, "a URDF (path or `package://` URI) that cannot be found; the hint lists "

@@ -19,6 +19,7 @@ from tmpc.lang.world import (
     is_run_config,
     load_allowed_pairs,
     load_config,
+    load_config_scene,
     load_scene,
     load_urdf,
     mesh_search_dirs,
@@ -64,8 +65,8 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
     fallback = mesh_search_dirs()
     if is_run_config(path):
         config = load_config(path, report=report)
-        scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                           strict_meshes=False, mesh_fallback_dirs=fallback)
+        scene = load_config_scene(config, report=report, strict_meshes=False,
+                                  mesh_fallback_dirs=fallback)
     else:
         scene = load_scene(path, report=report, mesh_fallback_dirs=fallback)
     world = World(scene, config, files=dict(report.files), warnings=list(report.warnings))

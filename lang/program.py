@@ -32,6 +32,7 @@ from tmpc.lang.world import (
     is_run_config,
     load_allowed_pairs,
     load_config,
+    load_config_scene,
     load_scene,
     load_urdf,
     mesh_search_dirs,
@@ -244,8 +245,8 @@ def _check_world_file(path: Path, ws: Workspace) -> list[Diagnostic]:
             config = load_config(path, report=report)
             # the scene, Lua file, domain and problem it names are checked as a run reads them
             # every mesh must be found and readable (E514, E565): a run needs them all
-            load_scene(config.scene, mesh_dir=config.mesh_dir, report=report,
-                       mesh_fallback_dirs=mesh_search_dirs(), check_meshes=True)
+            load_config_scene(config, report=report, mesh_fallback_dirs=mesh_search_dirs(),
+                              check_meshes=True)
             ws.files.update(report.files)
             ws.configs.append(config)
             return list(report.warnings)

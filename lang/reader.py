@@ -8,6 +8,7 @@ all its errors and a partial AST.
 from __future__ import annotations
 
 import gc
+import re
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -62,24 +63,53 @@ def parse_source(source: SourceFile) -> ParsedFile:
         reader = Reader(sink)
         defs = reader.read(doc)
     diags = sink.items
+    if any(d.code == "E001" for d in diags):
+        closed = _closed_at_end(source)
+        if closed is not None:
+            return closed
     if any(getattr(d, "dialect", None) in LEGACY_DIALECTS for d in defs):
         diags = [_legacy_tolerated(d) for d in diags]
-    if defs and not any(getattr(d, "dialect", None) is A.Dialect.TMPC for d in defs):
-        diags = [_unclosed_define_tolerated(d, source) for d in diags]
     return ParsedFile(source, defs, diags, doc)
 
 
-def _unclosed_define_tolerated(d: Diagnostic, source: SourceFile) -> Diagnostic:
-    """A classical or legacy file whose last `(define` is not closed at the end of the file
-    (the Lagriffoul suite's blocks-world problems): the repaired tree is unambiguous, so it is
-    a warning (W020); any other missing `)` stays an error."""
-    if d.code != "E001" or d.span is None or not d.related or \
-            d.span.end < len(source.text.rstrip()):
-        return d
-    if not source.text[d.related[0].span.start:].startswith("(define"):
-        return d
-    return warning("W020", "the last `(define` is not closed: a `)` is missing at the end of "
-                   "the file (tolerated in a classical PDDL file)", d.span, d.hint, d.related)
+_BRACKETS = re.compile(r'(;[^\n]*)|("(?:\\.|[^"\\\n])*")|(\()|(\))')
+
+
+def _closed_at_end(source: SourceFile) -> ParsedFile | None:
+    """A problem file that ends before the `)`s closing its `(define`: the suite of Lagriffoul
+    et al. 2018 ships its problems so. When adding them at the end of the file makes it read
+    without error as problems only, that reading is kept with warning W510 (a tab-indented line
+    would otherwise mislead the indentation-guided repair). None otherwise: the E001 errors
+    stand (a domain missing its last `)` is still an error)."""
+    text = source.text
+    depth, last, start = 0, 0, 0
+    for m in _BRACKETS.finditer(text):
+        if m.lastindex == 3:
+            start = m.start() if depth == 0 else start
+            depth += 1
+        elif m.lastindex == 4:
+            depth -= 1
+            if depth < 0:
+                return None
+        if m.lastindex != 1:
+            last = m.end()
+    if depth <= 0:
+        return None
+    tail = text[last:]
+    keep = len(tail) - len(tail.lstrip()) >= depth and not tail.strip()
+    closed = text[:last] + ")" * depth + (tail[depth:] if keep else tail)
+    parsed = parse_source(SourceFile(source.path, closed))
+    if not parsed.ok or not parsed.definitions or \
+            not all(isinstance(d, A.Problem) for d in parsed.definitions):
+        return None
+    line, col = source.line_col(start)
+    at = Span(source.path, max(0, last - 1), last)
+    what = " ".join(text[start + 1:start + 20].split()[:1]) or "("
+    w = warning("W510", f"the file ends before the `)` closing `({what}` opened at {line}:{col}"
+                f"; {'it is' if depth == 1 else f'{depth} `)` are'} added at the end of the file",
+                at, "add the missing `)` at the end of the file",
+                related=[Related(Span(source.path, start, start + 1), "unclosed list opens here")])
+    return ParsedFile(source, parsed.definitions, [w, *parsed.diagnostics], parsed.sexpr)
 
 
 @contextmanager

@@ -5,6 +5,7 @@ share.
 
 from tmpc.lang.world.configs import is_run_config as is_run_config
 from tmpc.lang.world.configs import load_config as load_config
+from tmpc.lang.world.configs import load_config_scene as load_config_scene
 from tmpc.lang.world.loaders import LoadReport as LoadReport
 from tmpc.lang.world.loaders import load_allowed_pairs as load_allowed_pairs
 from tmpc.lang.world.loaders import load_scene as load_scene

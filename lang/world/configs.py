@@ -18,9 +18,10 @@ import os
 import re
 import tomllib
 from pathlib import Path
+from dataclasses import replace
 from typing import Any, Callable, Iterable, NoReturn
 
-from tmpc.lang.diagnostics import SceneError, error
+from tmpc.lang.diagnostics import Related, SceneError, error
 from tmpc.lang.fileio import unwritable
 from tmpc.lang.jsonpos import parse_json
 from tmpc.lang.source import SourceFile, Span
@@ -32,14 +33,15 @@ from tmpc.lang.world.loaders import (
     display_name,
     find_file,
     join_hints,
+    load_scene,
     read_source,
     search_dirs,
     tried_text,
 )
-from tmpc.lang.world.scene import LEGACY_TOLERANCES, RunConfig
+from tmpc.lang.world.scene import LEGACY_TOLERANCES, RunConfig, Scene
 
 __all__ = ["CONFIG_LOADERS", "PLANNER_PARAMS", "PLANET_PARAMS", "detect_config_format",
-           "load_config", "load_planet_params"]
+           "load_config", "load_config_scene", "load_planet_params", "rename_scene"]
 
 #: planner parameters a native manifest may set under [planner]: name -> (type, meaning).
 #: Planners read the ones they use; planet's come from its params TOML, tmit-star's from the spec.
@@ -233,7 +235,7 @@ def _load_native(source: SourceFile, report: LoadReport) -> RunConfig:
 
 def _native(r: TomlReader) -> RunConfig:
     data = r.data
-    r.check_keys("", data, ("problem",), ("planner",))
+    r.check_keys("", data, ("problem",), ("planner", "names"))
     prob = r.table("problem", data.get("problem"))
     r.check_keys("problem", prob, *_PROBLEM_KEYS)
     r.finish()
@@ -259,6 +261,7 @@ def _native(r: TomlReader) -> RunConfig:
                 output = _output(r, r.span(full), full, value)
             elif key in PLANNER_PARAMS:
                 params.append((key, _param(r, full, value, PLANNER_PARAMS[key][0])))
+    names = _names(r, data.get("names", {}))
     r.finish()
     # `semantics` names a native semantics module (.tmpc) or a legacy Lua predicate file
     semantics = paths.get("semantics")
@@ -266,7 +269,95 @@ def _native(r: TomlReader) -> RunConfig:
     return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
                      None if module else semantics, paths.get("allowed_collisions"),
                      paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml",
-                     module=module)
+                     names, module=module)
+
+
+def _names(r: TomlReader, value: Any) -> tuple[tuple[str, str], ...]:
+    """``[names]``: ``pddl_name = "scene_name"`` pairs. Each value a string naming a PDDL-writable
+    name (E506, E518); one scene object given two PDDL names, or two PDDL names equal but for
+    case, is E525. Whether the scene has the names is checked when it is loaded
+    (:func:`load_config_scene`)."""
+    table = r.table("names", value)
+    out: list[tuple[str, str]] = []
+    seen_pddl: dict[str, str] = {}
+    seen_scene: dict[str, str] = {}
+    for pddl, scene_name in table.items():
+        key = f"names.{pddl}"
+        with r.part():
+            scene_name = r.expect(key, scene_name, str)
+            if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_\-]*", pddl):
+                r.fail("E518", r.key_span(key), f"[names]: \"{pddl}\" cannot be used as a name "
+                       "in PDDL", "a PDDL name starts with a letter and has letters, digits, "
+                       "`-` and `_`")
+            if pddl.lower() in seen_pddl:
+                r.fail("E525", r.key_span(key), f"[names]: \"{pddl}\" and "
+                       f"\"{seen_pddl[pddl.lower()]}\" are one PDDL name (PDDL ignores case)",
+                       related=[Related(r.key_span(f"names.{seen_pddl[pddl.lower()]}"),
+                                        "first given here")])
+            if scene_name.lower() in seen_scene:
+                first = seen_scene[scene_name.lower()]
+                r.fail("E525", r.span(key), f"[names]: scene object \"{scene_name}\" is given two "
+                       f"PDDL names, \"{first}\" and \"{pddl}\"", "one name per object",
+                       related=[Related(r.span(f"names.{first}"), "first named here")])
+            seen_pddl[pddl.lower()] = pddl
+            seen_scene[scene_name.lower()] = pddl
+            out.append((pddl, scene_name))
+    return tuple(out)
+
+
+def load_config_scene(config: RunConfig, report: LoadReport | None = None,
+                      **options: Any) -> Scene:
+    """The scene of a run configuration as its run sees it: loaded with the configuration's
+    mesh directory (``options`` go to :func:`~tmpc.lang.world.loaders.load_scene`), its objects
+    renamed by the manifest's ``[names]`` (attachments, parents and allowed-collision pairs
+    too). A scene name the scene lacks is E524 (with a "did you mean"); a PDDL name that another
+    scene object keeps is E525; both at the ``[names]`` entry."""
+    report = report if report is not None else LoadReport()
+    scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report, **options)
+    if not config.names:
+        return scene
+    return rename_scene(scene, config, report)
+
+
+def rename_scene(scene: Scene, config: RunConfig, report: LoadReport) -> Scene:
+    """``scene`` with each object named by ``config.names`` called by its PDDL name."""
+    source = read_source(config.path, "configuration")
+    report.files[source.path] = source
+    values, _ = toml_positions(source)
+    errors = []
+    names = {o.name.lower(): o.name for o in scene.objects}
+    new: dict[str, str] = {}                  # scene name (lower) -> PDDL name
+    for pddl, scene_name in config.names:
+        span = values.get(f"names.{pddl}")
+        if scene_name.lower() not in names:
+            errors.append(error("E524", f"{display_name(config.path)}: [names] {pddl}: the scene "
+                                f"({display_name(scene.path)}) has no object \"{scene_name}\"",
+                                span, join_hints(did_you_mean(scene_name, names.values()),
+                                                 "the values are the scene's object names")))
+        else:
+            new[scene_name.lower()] = pddl
+    final = {k: new.get(k, v) for k, v in names.items()}
+    for pddl, scene_name in config.names:
+        if scene_name.lower() not in new:
+            continue
+        other = [v for k, v in names.items() if k != scene_name.lower()
+                 and final[k].lower() == pddl.lower()]
+        if other:
+            errors.append(error("E525", f"{display_name(config.path)}: [names] {pddl}: scene "
+                                f"object \"{other[0]}\" is called \"{pddl}\" too",
+                                values.get(f"names.{pddl}"), f"give \"{other[0]}\" another PDDL "
+                                "name in [names], or choose another name"))
+    if errors:
+        raise SceneError(errors, report.files)
+
+    def to(n: str | None) -> str | None:
+        return None if n is None else new.get(n.lower(), n)
+
+    objects = tuple(replace(o, name=to(o.name), parent=to(o.parent),
+                            attachments=tuple(to(a) for a in o.attachments))
+                    for o in scene.objects)
+    pairs = tuple((to(a), to(b)) for a, b in scene.allowed_collisions)
+    return replace(scene, objects=objects, allowed_collisions=pairs)
 
 
 def _positive(r: Reader, key: str, x: float) -> float:

@@ -77,15 +77,15 @@ def _setup_errors(report) -> list:
     if not report.workspace.configs:
         return out
     from tmpc.lang.inputs import World
-    from tmpc.lang.world import load_scene, mesh_search_dirs
+    from tmpc.lang.world import load_config_scene, mesh_search_dirs
     from tmpc.runtime.setup_checks import setup_diagnostics
     for config in report.workspace.configs:
         program = config_program(config, report.programs)
         if program is None:
             continue
         try:
-            scene = load_scene(config.scene, mesh_dir=config.mesh_dir, strict_meshes=False,
-                               mesh_fallback_dirs=mesh_search_dirs())
+            scene = load_config_scene(config, strict_meshes=False,
+                                      mesh_fallback_dirs=mesh_search_dirs())
         except TmpcError as exc:
             report.workspace.files.update(exc.files)
             out.extend(exc.diagnostics)

@@ -131,11 +131,11 @@ def test_a_file_without_a_semantics_module_is_e125(tmp_path):
 
 def test_tabs_count_as_editors_show_them_when_repairing_parens():
     # the suite's blocks-world problems indent a line with a tab and miss the final `)`: the
-    # repair closes the define at the end of the file (W020), not the `:init` at the tab line
+    # file is closed at its end (W510), not the `:init` at the tab line
     text = "(define (problem p)\n    (:init \n          (a)\n\t  (b)\n          (c) )\n" \
            "   (:goal (a))\n"
     parsed = parse_text(text, "p.pddl")
-    assert [d.code for d in parsed.diagnostics] == ["W020"]
+    assert [d.code for d in parsed.diagnostics] == ["W510"]
     init = parsed.definitions[0].init
     assert [a.pred.text for a in init] == ["a", "b", "c"]
 
