@@ -385,8 +385,9 @@ class Domain:
     span: Span = field(**_SPAN)
     #: a semantics module's `(:domain NAME)`: the domain it gives meaning to
     target: Name | None = None
-    #: a semantics module's `(:hand FRAME)`: the robot frame that holds (``?hand`` in the module)
-    hand: Name | None = None
+    #: a semantics module's `(:hand FRAME ...)`: the robot frames that hold (``?hand`` in the
+    #: module)
+    hands: tuple[Name, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -285,6 +285,10 @@ _TABLE = (
                           "closed at the end of the file (the Lagriffoul suite's problems)"),
 
     # Robots
+    Code("W518", WARNING, "a flat support region floating up to 3 cm above its object's mesh "
+                          "is lowered onto the mesh"),
+    Code("W519", WARNING, "a robot base far from its scene's floor (the lowest fixed object's "
+                          "origin) is put on the floor"),
     Code("E560", ERROR, "a URDF (path or `package://` URI) that cannot be found; the hint lists "
                         "where tmpc looked"),
     Code("E561", ERROR, "a malformed URDF (bad XML, unknown links, not a tree, mimic of an "

@@ -83,9 +83,9 @@ def load_world(path: str | Path, with_program: bool = True) -> World:
 
 
 def _hand_arm(scene: Scene, program) -> Scene:
-    """A semantics module's hand (a ``tmpc-hand`` constant) moves its arm: when the scene names
-    no controllable joints, they are the joints from the robot's root to the hand (a PR2 then
-    plans with one arm and its torso, not with both arms and its head)."""
+    """A semantics module's hands (its ``tmpc-hand`` constants) move their arms: when the scene
+    names no controllable joints, they are the joints from the robot's root to each hand (a PR2
+    with one hand then plans with that arm and its torso, not with both arms and its head)."""
     robot = scene.robot
     if program is None or robot is None or robot.controllable is not None:
         return scene
@@ -93,7 +93,8 @@ def _hand_arm(scene: Scene, program) -> Scene:
              if c.type is not None and any(n.key == HAND_TYPE for n in c.type.names)]
     if not hands:
         return scene
-    chain = hand_chain(load_urdf(robot.urdf, strict_meshes=False), hands[0])
+    tree = load_urdf(robot.urdf, strict_meshes=False)
+    chain = tuple(dict.fromkeys(j for h in hands for j in hand_chain(tree, h)))
     if not chain:
         return scene
     return replace(scene, robot=replace(robot, controllable=chain))

@@ -230,7 +230,7 @@ class Reader(FormulaReader):
     def domain(self, name: A.Name, x: SList, form: str) -> A.Domain:
         allowed = ("", ":requirements", ":types", ":constants", ":predicates", ":functions",
                    ":include", ":define", ":action", ":derived")
-        target = hand = None
+        target, hands = None, ()
         if form == "semantics":
             allowed += (":domain", ":hand")
         parts: dict[str, list] = {k: [] for k in ("requirements", "types", "constants",
@@ -240,9 +240,10 @@ class Reader(FormulaReader):
         other = PROBLEM_ONLY - {":domain"} if form == "semantics" else PROBLEM_ONLY
         for kw, sec in self._sections(x, allowed, other, form):
             body = sec.items[1:]
-            if kw in (":domain", ":hand"):
-                one = self._one_name(sec, kw)
-                target, hand = (one, hand) if kw == ":domain" else (target, one)
+            if kw == ":domain":
+                target = self._one_name(sec, kw)
+            elif kw == ":hand":
+                hands += tuple(n for n in (self.name(it, "a frame name") for it in body) if n)
             elif kw == ":requirements":
                 parts["requirements"] += self.requirements(body)
             elif kw == ":types":
@@ -273,7 +274,7 @@ class Reader(FormulaReader):
                         tuple(parts["constants"]), preds, tuple(parts["functions"]),
                         tuple(parts["includes"]), tuple(parts["defines"]), tuple(parts["actions"]),
                         tuple(parts["derived"]), dialect, form, span=x.span, target=target,
-                        hand=hand)
+                        hands=hands)
 
     def _one_name(self, sec: SList, kw: str) -> A.Name | None:
         if len(sec.items) != 2:

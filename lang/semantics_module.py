@@ -7,8 +7,9 @@ ordinary tmpc program; every node it adds keeps the span of what it came from, s
 point at the semantics module or at the PDDL file. The rules:
 
 - a predicate declared in the module with ``:kinematic (link ?hand ?x)`` becomes kinematic; a
-  ``?hand`` parent that is not a parameter is the module's ``(:hand FRAME)``: the predicate gains a
-  first parameter of type ``tmpc-hand`` and every atom of it gains ``FRAME`` as first argument;
+  ``?hand`` parent that is not a parameter is the module's ``(:hand FRAME ...)``: the predicate
+  gains a first parameter of type ``tmpc-hand`` and every atom of it gains ``FRAME`` as first
+  argument (with several hands: the action's new parameter ``?hand``, so a plan says which hand);
 - a predicate given ``:semantics`` that some effect of the domain changes stays a symbol for the
   task planner (the file tracks it) and its meaning becomes a hidden geometric predicate
   ``P~means`` added to the precondition of every action that adds ``P``: the place where it
@@ -104,7 +105,10 @@ class _Overlay:
     def __init__(self, domain: A.Domain, problem: A.Problem | None, sem: A.Domain):
         self.domain, self.problem, self.sem = domain, problem, sem
         self.diags: list[Diagnostic] = []
-        self.hand = sem.hand
+        self.hands = sem.hands
+        self.hand = sem.hands[0] if sem.hands else None
+        #: several hands: ``?hand`` is a parameter of the actions that use it
+        self.multi = len(sem.hands) > 1
         #: predicate key -> True when every atom of it gains the hand as first argument
         self.with_hand: set[str] = set()
         #: predicate key -> (meaning predicate name, parameters)
@@ -166,15 +170,39 @@ class _Overlay:
         assert self.hand is not None
         return A.Const(_name(self.hand.text, like), span=like.span)
 
-    def rewrite(self, node):
-        """Every atom of a with-hand predicate gains the hand; ``?hand`` becomes the frame."""
+    def rewrite(self, node, in_action: bool = True):
+        """Every atom of a with-hand predicate gains the hand; ``?hand`` becomes the frame (with
+        several hands, inside an action it stays the action's ``?hand`` parameter; in the
+        problem it is the first hand)."""
+        keep_var = self.multi and in_action
+
+        def hand(like: A.Name):
+            return A.Var(_name(HAND_VAR, like), span=like.span) if keep_var \
+                else self._hand_term(like)
+
         def fn(n):
             if isinstance(n, A.Atom) and n.pred.key in self.with_hand:
-                return replace(n, args=(self._hand_term(n.pred),) + n.args)
-            if isinstance(n, A.Var) and n.name.key == HAND_VAR and self.hand is not None:
+                return replace(n, args=(hand(n.pred),) + n.args)
+            if isinstance(n, A.Var) and n.name.key == HAND_VAR and self.hand is not None \
+                    and not keep_var:
                 return self._hand_term(n.name)
             return n
         return map_tree(node, fn)
+
+    def with_hand_param(self, act: A.Action) -> A.Action:
+        """With several hands, an action whose atoms name ``?hand`` takes it as a parameter."""
+        if not self.multi or any(p.name.key == HAND_VAR for p in act.params):
+            return act
+        found: list[A.Var] = []
+
+        def fn(n):
+            if isinstance(n, A.Var) and n.name.key == HAND_VAR:
+                found.append(n)
+            return n
+        map_tree((act.precondition, act.effect), fn)
+        if not found:
+            return act
+        return replace(act, params=act.params + (_typed(HAND_VAR, HAND_TYPE, found[0].name),))
 
     def _means(self, action: A.Action) -> A.Formula | None:
         """The meanings of the atoms ``action`` adds, as precondition atoms."""
@@ -242,7 +270,8 @@ class _Overlay:
         pending = A.PredicateDecl(_name(nm.text + PENDING_SUFFIX, nm), act.params,
                                   A.Kind.DISCRETE, span=act.span)
         pend_atom = A.Atom(pending.name, args, span=act.span)
-        carry_atom = A.Atom(_name(CARRYING, nm), (self._hand_term(nm), var), span=var.span)
+        hand = A.Var(_name(HAND_VAR, nm), span=nm.span) if self.multi else self._hand_term(nm)
+        carry_atom = A.Atom(_name(CARRYING, nm), (hand, var), span=var.span)
         free_atom = A.Atom(_name(HAND_FREE, nm), (), span=act.span)
         grasp = A.Action(_name(nm.text + GRASP_SUFFIX, nm), act.params,
                          _conj(act.precondition, pre_extra, free_atom),
@@ -266,12 +295,13 @@ class _Overlay:
         actions, hidden, init_extra = self.actions()
         geometric_now = {p.name.key for p in preds if p.kind is A.Kind.GEOMETRIC}
         constants = dom.constants
-        if self.hand is not None:
-            constants += (A.Typed(self.hand, A.TypeRef((_name(HAND_TYPE, self.hand),),
-                                                       span=self.hand.span), span=self.hand.span),)
+        for h in self.hands:
+            constants += (A.Typed(h, A.TypeRef((_name(HAND_TYPE, h),), span=h.span),
+                                  span=h.span),)
         new_dom = replace(dom, predicates=tuple(preds) + tuple(hidden), actions=tuple(actions),
                           constants=constants, includes=dom.includes, defines=dom.defines)
-        new_dom = replace(new_dom, actions=self.rewrite(new_dom.actions))
+        new_dom = replace(new_dom, actions=tuple(self.with_hand_param(a) for a in
+                                                 self.rewrite(new_dom.actions)))
         problem = self.problem
         if problem is not None:
             kept = []
@@ -282,8 +312,8 @@ class _Overlay:
                                               "value; this atom is ignored", item.span))
                     continue
                 kept.append(item)
-            problem = replace(problem, init=self.rewrite(tuple(kept)) + tuple(init_extra),
-                              goal=self.rewrite(problem.goal))
+            problem = replace(problem, init=self.rewrite(tuple(kept), False) + tuple(init_extra),
+                              goal=self.rewrite(problem.goal, False))
         types = sem.types + (A.TypeDecl(_name(HAND_TYPE, sem.name), None, span=sem.name.span),)
         module = replace(sem, form="module", predicates=(), actions=(), types=types)
         return new_dom, problem, module

@@ -17,8 +17,8 @@ import math
 import os
 import re
 import tomllib
-from pathlib import Path
 from dataclasses import replace
+from pathlib import Path
 from typing import Any, Callable, Iterable, NoReturn
 
 from tmpc.lang.diagnostics import Related, SceneError, error
@@ -235,7 +235,7 @@ def _load_native(source: SourceFile, report: LoadReport) -> RunConfig:
 
 def _native(r: TomlReader) -> RunConfig:
     data = r.data
-    r.check_keys("", data, ("problem",), ("planner", "names"))
+    r.check_keys("", data, ("problem",), ("planner", "names", "robot"))
     prob = r.table("problem", data.get("problem"))
     r.check_keys("problem", prob, *_PROBLEM_KEYS)
     r.finish()
@@ -262,6 +262,12 @@ def _native(r: TomlReader) -> RunConfig:
             elif key in PLANNER_PARAMS:
                 params.append((key, _param(r, full, value, PLANNER_PARAMS[key][0])))
     names = _names(r, data.get("names", {}))
+    robot = r.table("robot", data.get("robot", {}))
+    r.check_keys("robot", robot, (), ("mobile_base",))
+    mobile = None
+    if "mobile_base" in robot:
+        with r.part():
+            mobile = r.expect("robot.mobile_base", robot["mobile_base"], bool)
     r.finish()
     # `semantics` names a native semantics module (.tmpc) or a legacy Lua predicate file
     semantics = paths.get("semantics")
@@ -269,7 +275,7 @@ def _native(r: TomlReader) -> RunConfig:
     return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
                      None if module else semantics, paths.get("allowed_collisions"),
                      paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml",
-                     names, module=module)
+                     names=names, module=module, mobile_base=mobile)
 
 
 def _names(r: TomlReader, value: Any) -> tuple[tuple[str, str], ...]:
@@ -314,6 +320,8 @@ def load_config_scene(config: RunConfig, report: LoadReport | None = None,
     scene object keeps is E525; both at the ``[names]`` entry."""
     report = report if report is not None else LoadReport()
     scene = load_scene(config.scene, mesh_dir=config.mesh_dir, report=report, **options)
+    if config.mobile_base is not None and scene.robot is not None:
+        scene = replace(scene, robot=replace(scene.robot, mobile_base=config.mobile_base))
     if not config.names:
         return scene
     return rename_scene(scene, config, report)

@@ -22,6 +22,9 @@ from tmpc.lang.world.suite import (
     check_attachments,
     fallback_urdf,
     grasps,
+    open_grippers,
+    robot_on_floor,
+    support_on_mesh,
     stable_pose,
 )
 from tmpc.lang.world.xmldoc import XmlNode, parse_xml
@@ -63,6 +66,8 @@ def _planet_scene(r: XmlReader, root: XmlNode, opts: SceneOptions) -> Scene:
     robot = urdf = None
     with r.part():
         robot, urdf = _planet_robot(r, robots)
+    robot = robot_on_floor(r, robot, [e.obj for e in entries],
+                           r.start_tag(robots.child("robot")) if robots.child("robot") else None)
     bounds = None
     with r.part():
         bounds = _planet_bounds(r, root, entries, robot)
@@ -115,6 +120,7 @@ def _planet_object(r: XmlReader, node: XmlNode, opts: SceneOptions,
         # Read in the object's frame: the table mesh spans x in [-0.8, 0.7], y in [-0.35, 0.35]
         # and the clutter files give xmin..xmax = -0.75..0.75 for rotated and unrotated tables.
         support = Box((v["xmin"], v["ymin"], v["zmin"]), (v["xmax"], v["ymax"], v["zmax"]))
+        support = support_on_mesh(r, support, mesh, r.text_span(sssp.child("zmin")), name)
     grasp_sets, sops, children = (), [], []
     with r.part():
         for g in node.all("grasps"):
@@ -163,6 +169,7 @@ def _planet_robot(r: XmlReader, robots: XmlNode) -> tuple[RobotSpec, UrdfNames]:
                 for jn, value in arm_values(r, arm, prefix):
                     if known_joint(r, jn, names, r.text_span(arm), r.label(arm), warn=True):
                         joints.append((jn, value))
+    open_grippers(joints, names)
     controllable: tuple[str, ...] | None = None
     cj = node.child("controllable_joints")
     if cj is not None:

@@ -207,6 +207,8 @@ class RunConfig:
     format: str = "tmpc-toml"
     #: a native semantics module (``semantics = "x.tmpc"``): meanings for a classical domain
     module: Path | None = None
+    #: the manifest's ``[robot] mobile_base``: overrides the scene's (None: the scene's)
+    mobile_base: bool | None = None
     #: the native manifest's ``[names]``: (PDDL name, scene name) pairs, in file order; the scene
     #: loaded for this configuration calls each scene object by its PDDL name
     names: tuple[tuple[str, str], ...] = ()

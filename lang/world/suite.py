@@ -9,7 +9,7 @@ diagnostic at the element (E505-E511, E521-E523; W500, W508-W510).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from tmpc.lang.diagnostics import Related
@@ -175,3 +175,76 @@ def fallback_urdf(r: XmlReader, raw: str, span: Span | None) -> str:
     r.warn("W508", span, f"URDF \"{raw}\" not found; using example-robot-data's PR2 model "
            f"({used})", "put the suite's PR2 model there to use it instead")
     return str(used)
+
+
+#: the PR2 finger joints that drive each gripper (the others mimic them)
+PR2_GRIPPERS = ("l_gripper_l_finger_joint", "r_gripper_l_finger_joint")
+#: the PR2 finger joint's upper limit: the gripper wide open
+PR2_GRIPPER_OPEN = 0.548
+#: how far (m) a base may stand from the scene's floor before it is put on it
+FLOOR_SLACK = 0.05
+
+
+def open_grippers(joints: list[tuple[str, float]], names) -> None:
+    """The suite's robot block gives no gripper values and its problems grasp objects up to 8
+    cm wide: a PR2's grippers start open (their upper limit), unless a value is given."""
+    given = {n for n, _ in joints}
+    for jn in PR2_GRIPPERS:
+        if jn in given or jn not in names.joints:
+            continue
+        joints.append((jn, PR2_GRIPPER_OPEN))
+
+
+def robot_on_floor(r: XmlReader, robot, objects, span: Span | None):
+    """The suite's <basepose> heights disagree with its own scenes (the blocks world puts the
+    PR2's base 0.70 m below its table's feet, the stick problems 0.67 m below the tables'); the
+    floor of a scene is the height of its lowest fixed object's origin (the tables stand on it).
+    A base farther than :data:`FLOOR_SLACK` from that floor is put on it, with warning W519."""
+    fixed = [o.pose.translation[2] for o in objects if not o.movable]
+    if robot is None or not fixed:
+        return robot
+    floor = min(fixed)
+    x, y, z = robot.base_pose.translation
+    if abs(z - floor) <= FLOOR_SLACK:
+        return robot
+    r.warn("W519", span, f"the robot's base is {abs(z - floor):.2f} m {'below' if z < floor else 'above'}"
+           f" the scene's floor (z {floor:g}, the lowest fixed object's origin); it stands on the "
+           "floor", "the suite's base heights disagree with its scenes; give a <basepose> z on "
+           "the floor to silence this")
+    return replace(robot, base_pose=replace(robot.base_pose, translation=(x, y, floor)))
+
+
+#: how far (m) above its object's mesh a support region may float before it is lowered onto it
+SUPPORT_FLOAT = 0.03
+
+
+def _obj_top(path) -> float | None:
+    """The highest vertex z of an OBJ mesh (None: not an OBJ file, unreadable, no vertices)."""
+    if path is None or Path(path).suffix.lower() != ".obj":
+        return None
+    top = None
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.startswith("v "):
+                    parts = line.split()
+                    if len(parts) >= 4:
+                        z = float(parts[3])
+                        top = z if top is None or z > top else top
+    except (OSError, ValueError):
+        return None
+    return top
+
+
+def support_on_mesh(r: XmlReader, box: Box, mesh, span: Span | None, name: str) -> Box:
+    """A flat support region (<sssp> zmin = zmax) up to :data:`SUPPORT_FLOAT` above the top of its
+    object's mesh is lowered onto it, with warning W518: objects placed on it rest there instead
+    of dropping (the suite's narrow table gives 0.78 over a top at 0.765)."""
+    top = _obj_top(mesh)
+    z = box.lower[2]
+    if top is None or box.upper[2] != z or not 1e-4 < z - top <= SUPPORT_FLOAT:
+        return box
+    r.warn("W518", span, f"<obj> \"{name}\": the support region's height {z:g} is "
+           f"{(z - top) * 1000:.0f} mm above the top of its mesh ({top:g}); it is lowered onto "
+           "the mesh", "objects placed at the written height would drop; write the mesh's top")
+    return Box((box.lower[0], box.lower[1], top), (box.upper[0], box.upper[1], top))
