@@ -383,6 +383,8 @@ _TABLE = (
     Code("W830", WARNING, "`tmpc validate`: a released object that does not rest on a support "
                           "(its gap above the surface > 1 cm, or tilted > 5°); an error with "
                           "--strict"),
+    Code("W840", WARNING, "an `:init` atom whose semantics-module meaning is false in the scene: "
+                          "the PDDL file and the scene disagree"),
     Code("E817", ERROR, "a plan made for another problem: it names joints the robot does not have "
                         "or objects the scene does not (`validate`, `view`)"),
     Code("E818", ERROR, "a state's `t` that is not a finite number >= 0, or is before the "

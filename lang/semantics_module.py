@@ -327,4 +327,5 @@ def apply_semantics(domain: A.Domain, problem: A.Problem | None, sem: A.Domain
     return new_dom, new_pb, module, ov.diags
 
 
-__all__ = ["apply_semantics", "HAND_TYPE", "HAND_VAR", "CARRYING", "HAND_FREE", "map_tree"]
+__all__ = ["apply_semantics", "HAND_TYPE", "HAND_VAR", "CARRYING", "HAND_FREE", "MEANS_SUFFIX",
+           "map_tree"]

@@ -30,7 +30,9 @@ from tmpc.compiler.lower import Lowerer
 from tmpc.compiler.robot import RobotModel, robot_model
 from tmpc.compiler.state import initial_state
 from tmpc.lang import ast as A
-from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error
+from tmpc.compiler.rotations import quat_matrix
+from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error, warning
+from tmpc.lang.semantics_module import MEANS_SUFFIX
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.collision import CollisionWorld
 from tmpc.runtime.evaluate import Evaluator, Obj
@@ -254,6 +256,42 @@ def setup_diagnostics(world) -> list[Diagnostic]:
         return checks.start_collisions(collision, q0, s0.poses, s0.held, tolerance)
     except TmpcError as exc:
         return list(exc.diagnostics)
+
+
+def init_meanings(world) -> list[Diagnostic]:
+    """W840: an `:init` atom whose predicate a semantics module gives a meaning
+    (docs/language.md, "Semantics modules") while the meaning is false in the scene: the PDDL
+    file and the scene disagree (the task planner believes the file; the geometry is the
+    scene's). Evaluated once per atom, by the numpy interpreter; for `tmpc check`."""
+    program = world.program
+    if program is None or program.problem is None:
+        return []
+    scope, scene = program.scope, world.scene
+    poses = {}
+    for o in scene.objects:
+        T = np.eye(4)
+        T[:3, :3] = quat_matrix(o.pose.rotation)
+        T[:3, 3] = o.pose.translation
+        poses[o.name] = T
+    ev = Evaluator(scene, None, None, None, poses, scope)
+    out = []
+    for item in program.problem.init:
+        if not isinstance(item, A.Atom):
+            continue
+        decl = scope.predicates.get(item.pred.key + MEANS_SUFFIX)
+        if decl is None or decl.semantics is None:
+            continue
+        env = {p.name.key: Obj(t.name.text) for p, t in zip(decl.params, item.args)}
+        try:
+            holds = bool(ev.value(decl.semantics, env))
+        except TmpcError:
+            continue
+        if not holds:
+            out.append(warning("W840", f"{_atom_text(item)} is in `:init`, but its meaning is "
+                               "false in the scene: the file and the scene disagree", item.span,
+                               "the task planner starts from the file's atoms; the geometry is "
+                               f"the scene's ({scene.path})"))
+    return out
 
 
 def raise_setup_errors(world) -> None:

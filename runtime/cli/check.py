@@ -78,7 +78,7 @@ def _setup_errors(report) -> list:
         return out
     from tmpc.lang.inputs import World
     from tmpc.lang.world import load_config_scene, mesh_search_dirs
-    from tmpc.runtime.setup_checks import setup_diagnostics
+    from tmpc.runtime.setup_checks import init_meanings, setup_diagnostics
     for config in report.workspace.configs:
         program = config_program(config, report.programs)
         if program is None:
@@ -90,7 +90,9 @@ def _setup_errors(report) -> list:
             report.workspace.files.update(exc.files)
             out.extend(exc.diagnostics)
             continue
-        out.extend(setup_diagnostics(World(scene, config, program)))
+        world = World(scene, config, program)
+        out.extend(setup_diagnostics(world))
+        out.extend(init_meanings(world))
     return out
 
 

@@ -1,0 +1,141 @@
+"""The Lagriffoul et al. 2018 suite from its own files (examples/lagriffoul/, docs/benchmarks.md):
+every instance's manifest loads and checks, the semantics modules agree with the files' own
+initial states, grasps agree with an analytic reference, and (slow) instances plan and validate."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tmpc.lang.inputs import load_world
+from tmpc.runtime.evaluate import Evaluator, Obj
+
+ROOT = Path(__file__).resolve().parents[2]
+SUITE = ROOT / "examples" / "lagriffoul"
+INSTANCES = [f"hanoi-{n}" for n in range(3, 7)] + [f"blocks-{c}" for c in "CDEFGHIJ"] + \
+    ["clutter", "nonmono"]
+MEANS = "~means"
+#: the suite's own slips: where its PDDL `:init` and its XML disagree (docs/benchmarks.md). The
+#: blocks-world XML puts a on the table, b on the blue tray and c on the red tray.
+SLIPS = {f"blocks-{c}": {("on-surface", ("a", "blue-tray")), ("on-surface", ("b", "table")),
+                         ("on-surface", ("c", "table"))} for c in "CDEFGHIJ"}
+
+
+def _make_runs():
+    sys.path.insert(0, str(SUITE))
+    try:
+        import make_runs
+    finally:
+        sys.path.pop(0)
+    return make_runs
+
+
+def test_manifests_are_what_make_runs_writes():
+    mr = _make_runs()
+    specs = mr.instances()
+    assert set(INSTANCES) <= set(specs)
+    for name, spec in specs.items():
+        assert (SUITE / name / "run.toml").read_text() == mr.render(name, spec), name
+
+
+def _pose(p) -> np.ndarray:
+    from tmpc.compiler.rotations import quat_matrix
+    T = np.eye(4)
+    T[:3, :3] = quat_matrix(p.rotation)
+    T[:3, 3] = p.translation
+    return T
+
+
+@pytest.fixture(scope="module")
+def worlds():
+    return {}
+
+
+def _world(worlds, name):
+    if name not in worlds:
+        worlds[name] = load_world(SUITE / name / "run.toml")
+    return worlds[name]
+
+
+@pytest.mark.parametrize("name", INSTANCES)
+def test_every_init_atom_with_a_meaning_holds_in_the_files_start(worlds, name):
+    """The semantics modules read the files as the files mean them: each `:init` atom whose
+    predicate has a geometric meaning (`on`, `on-surface`) holds on the scene's start poses,
+    by the numpy interpreter (no kernel)."""
+    world = _world(worlds, name)
+    prog = world.program
+    assert prog is not None
+    poses = {o.name: _pose(o.pose) for o in world.scene.objects}
+    ev = Evaluator(world.scene, None, None, None, poses, prog.scope)
+    checked, false = 0, set()
+    for item in prog.problem.init:
+        decl = prog.scope.predicates.get(getattr(item, "pred", None) and
+                                         item.pred.key + MEANS)
+        if decl is None:
+            continue
+        env = {p.name.key: Obj(a.name.text) for p, a in zip(decl.params, item.args)}
+        if not bool(ev.value(decl.semantics, env)):
+            false.add((item.pred.text, tuple(a.name.text for a in item.args)))
+        checked += 1
+    assert checked > 0
+    assert false == SLIPS.get(name, set())
+    # `tmpc check` says so, at each atom (W840)
+    from tmpc.runtime.setup_checks import init_meanings
+    warned = {(d.code, d.span.path) for d in init_meanings(world)}
+    assert len(init_meanings(world)) == len(false)
+    assert all(code == "W840" and path.endswith(".pddl") for code, path in warned)
+
+
+def test_grasped_by_matches_the_grasp_set_by_construction(worlds):
+    """`grasped-by` against an independent reference: hand poses built from the object's grasp
+    template turned about its axis hold; moved 2 cm or tilted 0.3 rad they do not."""
+    world = _world(worlds, "blocks-D")
+    prog = world.program
+    obj = world.scene.object("a")
+    g = obj.grasps[0]
+    T_obj = _pose(obj.pose)
+    T_t = _pose(g.template)
+    axis = np.array(g.axis)
+    decl = prog.scope.predicates["grasp"]
+
+    def holds(T_hand):
+        poses = {o.name: _pose(o.pose) for o in world.scene.objects}
+        poses["hand"] = T_hand
+        ev = Evaluator(world.scene, None, None, None, poses, prog.scope)
+        env = {decl.params[0].name.key: Obj("hand"), decl.params[1].name.key: Obj("a")}
+        return bool(ev.value(decl.semantics, env))
+
+    def rot(u, a):
+        u = u / np.linalg.norm(u)
+        K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+        R = np.eye(4)
+        R[:3, :3] = np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K
+        return R
+    for theta in np.linspace(-math.pi, math.pi, 7):
+        T_hand = T_obj @ rot(axis, theta) @ T_t
+        assert holds(T_hand)
+        moved = T_hand.copy()
+        moved[:3, 3] += np.array([0.0, 0.0, 0.02])
+        assert not holds(moved)
+        # tilting the approach (about the hand's y axis) leaves the set; rolling about the
+        # approach axis, here the object's own axis, stays in it
+        assert not holds(T_hand @ rot(np.array([0.0, 1.0, 0]), 0.3))
+        assert holds(T_hand @ rot(np.array([1.0, 0, 0]), 0.3))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["blocks-C", "hanoi-3", "clutter", "nonmono"])
+def test_smallest_instances_plan_and_validate(tmp_path, name):
+    out = tmp_path / "plan.json"
+    run = subprocess.run([sys.executable, "-m", "tmpc", "run", str(SUITE / name / "run.toml"),
+                          "-o", str(out)], capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stdout + run.stderr
+    val = subprocess.run([sys.executable, "-m", "tmpc", "validate", "--json",
+                          str(SUITE / name / "run.toml"), str(out)],
+                         capture_output=True, text=True, timeout=600)
+    report = json.loads(val.stdout)
+    assert val.returncode == 0 and report["valid"], val.stdout
