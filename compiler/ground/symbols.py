@@ -46,10 +46,15 @@ def is_symbol(predicate: str) -> bool:
 
 def shown_as(schema: str, args: tuple[str, ...], program: CheckedProgram) -> tuple[str, tuple]:
     """A (possibly variant) action as plans name it: its original schema and arguments."""
-    if VARIANT not in schema:
-        return schema, args
-    base = program.scope.actions[schema.split(VARIANT, 1)[0].lower()]
-    return base.name.text, args[:len(base.params)]
+    actions = program.scope.actions
+    if VARIANT not in schema or schema.lower() in actions:
+        return schema, args          # a declared name (a semantics module's `move~grasp`)
+    parts = schema.split(VARIANT)
+    for k in range(len(parts) - 1, 0, -1):
+        base = actions.get(VARIANT.join(parts[:k]).lower())
+        if base is not None:
+            return base.name.text, args[:len(base.params)]
+    return schema, args
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from tmpc.runtime.validate.state import (
     POSE_TOL,
     SUPPORT_GAP,
     SUPPORT_SINK,
+    SUPPORT_SLACK,
     SUPPORT_TILT,
     ResolvedState,
     action_text,
@@ -184,7 +185,9 @@ class StateChecks:
         if o.support is not None:
             local = np.linalg.inv(T) @ np.append(point, 1.0)
             lo, hi = o.support.lower, o.support.upper
-            if lo[0] <= local[0] <= hi[0] and lo[1] <= local[1] <= hi[1]:
+            slack = [SUPPORT_SLACK if hi[i] - lo[i] < 2 * SUPPORT_SLACK else 0.0 for i in (0, 1)]
+            if lo[0] - slack[0] <= local[0] <= hi[0] + slack[0] and \
+                    lo[1] - slack[1] <= local[1] <= hi[1] + slack[1]:
                 return float((T @ np.array([local[0], local[1], lo[2], 1.0]))[2])
         box = self.checker.object_aabb(o.name, T)
         if box is not None and np.all(box[0][:2] <= point[:2]) and np.all(point[:2] <= box[1][:2]):
