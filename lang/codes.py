@@ -285,6 +285,8 @@ _TABLE = (
                           "closed at the end of the file (the Lagriffoul suite's problems)"),
 
     # Robots
+    Code("W517", WARNING, "a movable object written at the place of another is moved to the "
+                          "nearest free place"),
     Code("W518", WARNING, "a flat support region floating up to 3 cm above its object's mesh "
                           "is lowered onto the mesh"),
     Code("W519", WARNING, "a robot base far from its scene's floor (the lowest fixed object's "

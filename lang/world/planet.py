@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from pathlib import Path
 
 from tmpc.lang.diagnostics import Related
@@ -24,6 +25,7 @@ from tmpc.lang.world.suite import (
     grasps,
     open_grippers,
     robot_on_floor,
+    separate_duplicates,
     support_on_mesh,
     stable_pose,
 )
@@ -66,6 +68,8 @@ def _planet_scene(r: XmlReader, root: XmlNode, opts: SceneOptions) -> Scene:
     robot = urdf = None
     with r.part():
         robot, urdf = _planet_robot(r, robots)
+    moved = separate_duplicates(r, [e.obj for e in entries], [e.name_span for e in entries])
+    entries = [replace(e, obj=o) if o is not e.obj else e for e, o in zip(entries, moved)]
     robot = robot_on_floor(r, robot, [e.obj for e in entries],
                            r.start_tag(robots.child("robot")) if robots.child("robot") else None)
     bounds = None

@@ -248,3 +248,59 @@ def support_on_mesh(r: XmlReader, box: Box, mesh, span: Span | None, name: str) 
            f"{(z - top) * 1000:.0f} mm above the top of its mesh ({top:g}); it is lowered onto "
            "the mesh", "objects placed at the written height would drop; write the mesh's top")
     return Box((box.lower[0], box.lower[1], top), (box.upper[0], box.upper[1], top))
+
+
+def _obj_radius(path) -> float:
+    """Half the diagonal of an OBJ mesh's footprint (xy bounds); 0 when unreadable."""
+    if path is None or Path(path).suffix.lower() != ".obj":
+        return 0.0
+    xs: list[float] = []
+    ys: list[float] = []
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.startswith("v "):
+                    parts = line.split()
+                    if len(parts) >= 4:
+                        xs.append(float(parts[1]))
+                        ys.append(float(parts[2]))
+    except (OSError, ValueError):
+        return 0.0
+    if not xs:
+        return 0.0
+    return math.hypot(max(xs) - min(xs), max(ys) - min(ys)) / 2
+
+
+def separate_duplicates(r: XmlReader, objects: list, spans: list) -> list:
+    """Movable objects written at the place of another (the suite's clutter.xml puts two pairs
+    of sticks at one spot each): each later one moves sideways, by whole footprints, to the
+    nearest place where its footprint meets no other movable object's, with warning W517. The
+    footprint is the circle around the mesh's xy bounds."""
+    radius = [_obj_radius(o.shape.mesh if o.shape is not None else None) for o in objects]
+    placed = [(i, o.pose.translation) for i, o in enumerate(objects) if o.movable]
+    out = list(objects)
+    for k, (i, p) in enumerate(placed):
+        clash = [j for j, q in placed[:k] if math.dist(p[:2], q[:2]) < 1e-3 and
+                 abs(p[2] - q[2]) < 0.05]
+        if not clash:
+            continue
+        step = 2 * radius[i] + 0.01
+        others = [(j, out[j].pose.translation) for j, _ in placed if j != i]
+        for n in range(1, 6):
+            cands = [(p[0] + dx * n * step, p[1] + dy * n * step, p[2])
+                     for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))]
+            free = [c for c in cands if all(math.dist(c[:2], q[:2]) >= radius[i] + radius[j]
+                                             + 0.005 for j, q in others)]
+            if free:
+                new = free[0]
+                break
+        else:
+            continue
+        o = out[i]
+        r.warn("W517", spans[i], f"<obj> \"{o.name}\" is written at the place of "
+               f"\"{objects[clash[0]].name}\" ({fmt_num(p[0])}, {fmt_num(p[1])}); it is moved "
+               f"to ({fmt_num(new[0])}, {fmt_num(new[1])}), the nearest free place",
+               "give each object a place of its own")
+        out[i] = replace(o, pose=replace(o.pose, translation=new))
+        placed[k] = (i, new)
+    return out
