@@ -145,6 +145,17 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
             "robot": robot, "objects": objects, "allowed_collisions": pairs}
 
 
+def _kernel_sources(members: _Members, scene: dict) -> str:
+    """What the kernels are compiled from: every member, the scene without the start poses of
+    its movable objects (a kernel reads them as inputs), so variations of a problem's start
+    (examples/lagriffoul/vary.py) share their compiled kernels."""
+    files = {k: digest(v) for k, v in sorted(members.files.items())}
+    files["src/scene.json"] = digest(json.dumps(
+        dict(scene, objects=[{k: v for k, v in o.items() if not (k == "pose" and o["movable"])}
+                             for o in scene["objects"]]), sort_keys=True).encode())
+    return digest(json.dumps(files).encode())
+
+
 def _cached(sources: str, options) -> Callable[[str, tuple, Callable[[], bytes]], bytes]:
     """Exported kernels are cached by (sources, key, spec, tmpc and JAX versions, options):
     recompiling an unchanged problem reuses them (exporting traces and lowers every kernel,
@@ -195,7 +206,7 @@ def build_artifact(world, out: str | Path, register=None, run_only: bool = False
     compiled.register_kernels(run_only)
     if register is not None:
         register(world, compiled)          # what the runtime adds (the collision checker's)
-    sources = digest(json.dumps({k: digest(v) for k, v in sorted(members.files.items())}).encode())
+    sources = _kernel_sources(members, scene)
     exported, skipped = compiled.bank.export(
         _cached(sources, compiled.options),
         lambda i, n, key: progress("compiling kernels", i, n, kernel_label(key)))
