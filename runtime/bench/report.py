@@ -99,7 +99,8 @@ def write_report(files, out_dir) -> list[Path]:
     if reports:
         _save(edits_figure(reports), out / "error_over_edits.png",
               "Error over edits (repair experiments)", written)
-    tables = ((summary_table(recs) if recs else "")
+    suite = suite_table(recs) if recs else ""
+    tables = ((suite + "\n" if suite else "") + (summary_table(recs) if recs else "")
               + ("\n" if recs and reports else "") + (repair_table(reports) if reports else ""))
     atomic_write_text(out / "table.md", tables)
     page = out / "report.html"
@@ -121,6 +122,44 @@ def _save(fig, path: Path, title: str, written: list) -> None:
 def _natural(name: str) -> tuple:
     """clutter-2 before clutter-10."""
     return tuple(int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name))
+
+
+#: a variation of an instance is named ``<instance>~v<seed>`` (examples/lagriffoul/bench.py)
+_VARIATION = re.compile(r"~v\d+$")
+
+
+def suite_table(recs: list[dict]) -> str:
+    """The benchmark suite's metrics (docs/benchmarks.md): a row per instance and planner over
+    its variations (problems named ``<instance>~v<seed>``): runs, success rate, success within
+    60 and 300 s, median, mean and max planning time of the solved runs, median plan length
+    (actions) and median motion length (configuration-space path length). Empty without
+    variations."""
+    rows = defaultdict(list)
+    for r in recs:
+        if _VARIATION.search(r["problem"]):
+            rows[(_VARIATION.sub("", r["problem"]), cell(r))].append(r)
+    if not rows:
+        return ""
+
+    def f(x: float) -> str:
+        return "—" if math.isnan(x) else f"{x:.1f}"
+
+    lines = ["| instance | planner | runs | solved | ≤ 60 s | ≤ 300 s | median s | mean s | "
+             "max s | median actions | median motion length |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for (inst, name), rs in sorted(rows.items(), key=lambda kv: (_natural(kv[0][0]), kv[0][1])):
+        solved = [r for r in rs if r.get("solved")]
+        times = [solve_time(r) for r in solved]
+        n = len(rs)
+        acts = [float(r.get("n_actions", len(r.get("actions") or []))) for r in solved]
+        length = [float(r["path_length"]) for r in solved if r.get("path_length") is not None]
+        med = (lambda xs: quantile(xs, 0.5) if xs else math.nan)
+        lines.append(
+            f"| {inst} | {name} | {n} | {len(solved) / n:.0%} | "
+            f"{sum(t <= 60 for t in times)}/{n} | {sum(t <= 300 for t in times)}/{n} | "
+            f"{f(med(times))} | {f(sum(times) / len(times) if times else math.nan)} | "
+            f"{f(max(times) if times else math.nan)} | {f(med(acts))} | {f(med(length))} |")
+    return "\n".join(lines) + "\n"
 
 
 def summary_table(recs: list[dict]) -> str:

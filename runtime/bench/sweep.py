@@ -71,11 +71,14 @@ def check_output(path) -> None:
 
 
 def problem_names(inputs) -> list[str]:
-    """A short name per input (its file stem, made unique; no whitespace: OMPL's log reader
-    takes the experiment name as one token)."""
+    """A short name per input (its file stem, or its folder's name for a ``run.toml`` in a folder
+    of its own, as examples/lagriffoul/<instance>/run.toml; made unique; no whitespace: OMPL's
+    log reader takes the experiment name as one token)."""
     out: list[str] = []
     for path in inputs:
-        base = "_".join(Path(path).stem.split()) or "problem"
+        p = Path(path)
+        stem = p.parent.name if p.name == "run.toml" and p.parent.name else p.stem
+        base = "_".join(stem.split()) or "problem"
         name, k = base, 2
         while name in out:
             name, k = f"{base}-{k}", k + 1
