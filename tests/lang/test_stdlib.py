@@ -13,6 +13,8 @@ GEOMETRY_USES = {
     "near-planar": "(near-planar ?a ?b 0.1)",
     "in-box": "(in-box (position ?a) (support-region ?b))",
     "on-support": "(on-support ?a ?b)",
+    "on-support-within": "(on-support-within ?a ?b 0.01)",
+    "support-margin": "(<= (support-margin ?a) 0.05)",
     "over-support": "(over-support ?a ?b 0.3)",
     "support-gap": "(<= (support-gap ?a ?b) 0.01)",
     "rests-on": "(rests-on ?a ?b 0.07)",
