@@ -9,6 +9,9 @@ import numpy as np
 
 #: a drift above this fails ``--strict`` (m)
 DRIFT_LIMIT = 0.01
+#: a released object tilted more than this after settling has tipped: it fails ``--strict``
+#: (rad; the validator's W830 tilt, 5 degrees)
+TILT_LIMIT = 0.0873
 
 
 @dataclass
@@ -39,7 +42,9 @@ class SimReport:
         return max(self.tracking.values(), default=0.0)
 
     def ok(self) -> bool:
-        return all(d <= DRIFT_LIMIT for d in self.drift.values()) and self.goal_holds is not False
+        return (all(d <= DRIFT_LIMIT for d in self.drift.values())
+                and all(a <= TILT_LIMIT for a in self.tilt.values())
+                and self.goal_holds is not False)
 
     def as_json(self) -> dict:
         return {"ok": self.ok(), "drift": self.drift, "tilt": self.tilt,
@@ -56,7 +61,8 @@ class SimReport:
                  f"settled for the plan's {self.sim_seconds:.2f} s simulated in "
                  f"{self.wall_seconds:.2f} s ({self.real_time_factor:.1f}x real time)"]
         for name, d in sorted(self.drift.items()):
-            flag = "  (> 1 cm)" if d > DRIFT_LIMIT else ""
+            flag = ("  (> 1 cm)" if d > DRIFT_LIMIT else "") + (
+                "  (tipped: > 5 deg)" if self.tilt[name] > TILT_LIMIT else "")
             lines.append(f"  {name}: drift {1000 * d:.1f} mm, tilt "
                          f"{np.degrees(self.tilt[name]):.1f} deg{flag}")
         if self.tracking:
