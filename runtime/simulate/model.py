@@ -33,6 +33,9 @@ TIMESTEP = 0.002
 TRACKING_HZ = 10.0
 #: kg·m² (kg for a prismatic joint): the rotor inertia given to joints whose URDF has none
 ARMATURE = 0.1
+#: the grasp weld's stiffness (time constant s, damping ratio): as stiff as the time step allows
+#: (MuJoCo's default 0.02 s let a held stick sag 3 mm and catch a table's edge)
+WELD_SOLREF = (2 * TIMESTEP, 1.0)
 # contact bits (contype, conaffinity): the robot touches the scene's objects but not itself nor
 # the floor (its base is carried by its actuators); an object in a grasp touches everything
 # but the robot (the plan's grasp has no fingers: see docs/physics.md)
@@ -162,7 +165,7 @@ def build_model(world, start_objects: dict[str, np.ndarray], base: np.ndarray | 
             movable.append(o.name)
             spec.add_equality(name=f"weld:{o.name}", type=mujoco.mjtEq.mjEQ_WELD,
                               objtype=mujoco.mjtObj.mjOBJ_BODY, name1=root.name,
-                              name2=f"obj:{o.name}", active=False)
+                              name2=f"obj:{o.name}", active=False, solref=list(WELD_SOLREF))
         add_shape(spec, body, o, world)
     try:
         model = spec.compile()

@@ -83,9 +83,11 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
                 _grasp(model, data, sim.welds[o], body[e["frame"]],
                        after if after is not None else _pose(data, objects[o]), geoms[o])
                 held[o] = e["frame"]
+                model.body_gravcomp[objects[o]] = 1.0     # the grip carries its weight
                 letting_go.pop(o, None)
             elif e["event"] == "release" and o in held:
                 data.eq_active[sim.welds[o]] = 0
+                model.body_gravcomp[objects[o]] = 0.0
                 letting_go[o] = (_retreat_end(doc, t), _gripper_geoms(model, body[held.pop(o)]))
                 released[o] = None
         ref = ref0.copy()
@@ -112,6 +114,8 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
         _contacts(model, data, body, sim.movable, held, contacts)
     if trace:
         report.trace.append(_sample(data, sim, qadr, objects))
+    for o in held:
+        model.body_gravcomp[objects[o]] = 0.0
     for o in letting_go:                   # leave the model as built
         for g in geoms[o]:
             model.geom_contype[g], model.geom_conaffinity[g] = SCENE_BITS
