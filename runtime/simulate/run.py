@@ -66,6 +66,10 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
     duration = float(timing["duration"])
     steps = int(np.ceil((duration + settle) / model.opt.timestep))
     contacts: dict[tuple[str, str], dict] = {}
+    at = np.arange(steps) * model.opt.timestep
+    q_ref = np.stack([np.interp(at, ts, qs[:, j]) for j in range(len(names))], 1)
+    v_ref = np.stack([np.interp(at, ts, vs[:, j]) for j in range(len(names))], 1)
+    names_of = {i: n for n, i in body.items()}
     tracking = np.zeros(len(names))
     next_trace = 0.0
     wall = time.perf_counter()
@@ -92,8 +96,7 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
                 released[o] = None
         ref = ref0.copy()
         vel = np.zeros_like(ref0)
-        ref[timed] = [np.interp(t, ts, qs[:, j]) for j in range(len(names))]
-        vel[timed] = [np.interp(t, ts, vs[:, j]) for j in range(len(names))]
+        ref[timed], vel[timed] = q_ref[step], v_ref[step]
         for a, m, k, off in follow:
             ref[a], vel[a] = k * ref[m] + off, k * vel[m]
         if t <= duration:
@@ -111,7 +114,7 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
                 letting_go.pop(o)
                 for g in geoms[o]:
                     model.geom_contype[g], model.geom_conaffinity[g] = SCENE_BITS
-        _contacts(model, data, body, sim.movable, held, contacts)
+        _contacts(model, data, names_of, sim.movable, held, contacts)
     if trace:
         report.trace.append(_sample(data, sim, qadr, objects))
     for o in held:
@@ -228,13 +231,14 @@ def _wxyz(T: np.ndarray) -> list[float]:
     return [w, x, y, z]
 
 
-def _contacts(model, data, body, movable, held, found) -> None:
+def _contacts(model, data, names, movable, held, found) -> None:
     """Deep contacts of the robot with a static object, and of a carried object with anything
-    but the robot."""
-    names = {i: n for n, i in body.items()}
-    for c in data.contact[:data.ncon]:
-        if c.dist > -CONTACT_DEPTH:
-            continue
+    but the robot (``names``: body id -> name)."""
+    if data.ncon == 0:
+        return
+    deep = np.flatnonzero(data.contact.dist[:data.ncon] < -CONTACT_DEPTH)
+    for i in deep:
+        c = data.contact[i]
         a = names.get(model.geom_bodyid[c.geom1], "world")
         b = names.get(model.geom_bodyid[c.geom2], "world")
         kinds = [_kind(n, movable, held) for n in (a, b)]
