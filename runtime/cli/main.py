@@ -381,6 +381,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
         p.add_argument("--validate", action="store_true", help="check every plan with the "
                        "independent validator")
+        p.add_argument("--simulate", action="store_true", help="time every solved plan and "
+                       "replay it in MuJoCo: a physics column (settled, drift; docs/physics.md)")
         g = p.add_argument_group("distributed sweeps (docs/bench.md); any of these, or -o "
                                  "R.jsonl, runs each run as a task; `tmpc bench report "
                                  "R.jsonl [report.json] -o DIR` draws plots and tables of "

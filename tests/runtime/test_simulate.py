@@ -115,3 +115,23 @@ def test_an_unwritable_page_is_e835(tabletop_world, timed_plan, good_report, tmp
         write_sim_html(tabletop_world, timed_plan, good_report.trace[:3],
                        tmp_path / "missing" / "sim.html")
     assert exc.value.diagnostics[0].code == "E835"
+
+
+def test_bench_simulate_records_and_tabulates_physics(tabletop_world, timed_plan):
+    """`tmpc bench --simulate`'s record of a run and its physics table."""
+    from tmpc.runtime.bench.physics import physics_record, physics_table
+    doc = json.loads(json.dumps(timed_plan))
+    for s in doc["states"]:
+        s.pop("t", None)
+    doc.pop("timing")
+    rec = physics_record(tabletop_world, doc)
+    assert rec["settled"] is True and set(rec["drift"]) == {"red_cube", "blue_cube"}
+    assert 0 < rec["max_drift"] < 0.005 and rec["motions"] == 4 and rec["real_time_factor"] > 1
+    bad = dict(rec, settled=False, drift={"red_cube": 0.05}, max_drift=0.05)
+    recs = [{"problem": "tabletop", "planner": "unified", "physics": p} for p in (rec, bad)]
+    recs.append({"problem": "tabletop", "planner": "unified", "physics": {"settled": None,
+                                                                        "error": "E833: x"}})
+    rows = physics_table(recs).splitlines()
+    assert rows[0].startswith("| problem | planner | settled | max drift mm")
+    assert rows[2].startswith("| tabletop | unified | 1/3 | 50.0 |")
+    assert physics_table([{"problem": "p", "planner": "u"}]) == ""
