@@ -95,6 +95,13 @@ def mimics(world) -> dict[str, tuple[str, float, float]]:
     return out
 
 
+def joint_children(world) -> dict[str, str]:
+    """The URDF's joints: name -> child link (a plan may name a frame by its joint)."""
+    return {j.get("name"): j.find("child").get("link")
+            for j in ET.parse(urdf_path(world)).getroot().iter("joint")
+            if j.find("child") is not None}
+
+
 def quat_wxyz(T: np.ndarray) -> list[float]:
     x, y, z, w = quat_from_matrix(T[:3, :3])
     return [float(w), float(x), float(y), float(z)]

@@ -12,8 +12,8 @@ import numpy as np
 
 from tmpc.lang.source import SourceFile
 from tmpc.runtime.plans import parse_plan
-from tmpc.runtime.simulate.model import GRASPED_BITS, SCENE_BITS, build_model, fail, mimics, \
-    set_gains
+from tmpc.runtime.simulate.model import GRASPED_BITS, SCENE_BITS, build_model, fail, \
+    joint_children, mimics, set_gains
 from tmpc.runtime.simulate.report import DRIFT_LIMIT, SimReport
 from tmpc.runtime.timing import BASE_JOINTS, base_pose_values, events
 from tmpc.runtime.validate import quat_from_matrix, validate_plan
@@ -52,6 +52,9 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
               if n in act and m in act]
     ts, qs, vs = _timeline(doc, names, ref0[timed])
     body = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i): i for i in range(model.nbody)}
+    for joint, child in joint_children(world).items():     # frames named by their joint
+        if child in body:
+            body.setdefault(joint, body[child])
     objects = {o: body[f"obj:{o}"] for o in sim.movable}
     geoms = {o: [g for g in range(model.ngeom) if model.geom_bodyid[g] == b]
              for o, b in objects.items()}
