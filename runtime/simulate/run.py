@@ -95,7 +95,8 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
             elif e["event"] == "release" and o in held:
                 data.eq_active[sim.welds[o]] = 0
                 model.body_gravcomp[objects[o]] = 0.0
-                letting_go[o] = (_retreat_end(doc, t), _gripper_geoms(model, body[held.pop(o)]))
+                letting_go[o] = (_retreat_end(doc, e["time"]),
+                                 _gripper_geoms(model, body[held.pop(o)]))
                 released[o] = None
         ref = ref0.copy()
         vel = np.zeros_like(ref0)
@@ -180,7 +181,7 @@ def _grasp(model, data, weld: int, frame: int, T_obj: np.ndarray, geoms) -> None
 
 def _retreat_end(doc, t: float) -> float:
     """When the first motion starting at or after ``t`` (the hand's retreat) ends."""
-    ends = [m["t"][-1] for m in doc["timing"]["motions"] if m["start"] >= t - 1e-9]
+    ends = [m["t"][-1] for m in doc["timing"]["motions"] if m["start"] >= t - 1e-6]
     return min(ends, default=t)
 
 

@@ -15,6 +15,7 @@ GEOMETRY_USES = {
     "on-support": "(on-support ?a ?b)",
     "on-support-within": "(on-support-within ?a ?b 0.01)",
     "support-margin": "(<= (support-margin ?a) 0.05)",
+    "over-body": "(over-body ?a ?b 0.01)",
     "over-support": "(over-support ?a ?b 0.3)",
     "support-gap": "(<= (support-gap ?a ?b) 0.01)",
     "rests-on": "(rests-on ?a ?b 0.07)",

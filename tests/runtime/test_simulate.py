@@ -135,3 +135,14 @@ def test_bench_simulate_records_and_tabulates_physics(tabletop_world, timed_plan
     assert rows[0].startswith("| problem | planner | settled | max drift mm")
     assert rows[2].startswith("| tabletop | unified | 1/3 | 50.0 |")
     assert physics_table([{"problem": "p", "planner": "u"}]) == ""
+
+
+def test_the_tower_of_three_cubes_stands(tmp_path):
+    """examples/tower: c on b on a, planned and timed by `tmpc run --timed`, stands in MuJoCo
+    (`rests-on` keeps each cube's centre over the one below, in that cube's own frame)."""
+    from tests.support import ROOT
+    from tmpc.runtime.cli.main import main
+    tower = ROOT / "examples" / "tower" / "tower.toml"
+    plan = tmp_path / "tower.json"
+    assert main(["run", str(tower), "--seed", "2", "--timed", "-q", "-o", str(plan)]) == 0
+    assert main(["simulate", str(tower), str(plan), "--strict"]) == 0
