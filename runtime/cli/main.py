@@ -306,7 +306,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("plan", metavar="PLAN.json", help="a plan (an untimed one is timed "
                        "first)")
         p.add_argument("--strict", action="store_true", help="exit 1 when a released object "
-                       "drifts more than 1 cm while settling or the goal no longer holds")
+                       "drifts more than 1 cm while settling, tips (> 5 degrees) or the goal "
+                       "no longer holds")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--html", metavar="OUT.html", help="write the simulated motion as a "
                        "viewer page")

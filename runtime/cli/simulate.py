@@ -1,6 +1,7 @@
 """`tmpc simulate INPUT PLAN [--strict] [--json] [--html OUT]`: replay a plan in MuJoCo (an
-untimed one is timed first) and report drift, contacts and the goal after settling. Exit 0; 1
-with --strict when a drift passes 1 cm or the goal no longer holds."""
+untimed one is timed first) and report drift, contacts and the goal after settling
+(docs/physics.md). Exit 0; 1 with --strict when a drift passes 1 cm, an object tips or the goal
+no longer holds."""
 
 from __future__ import annotations
 
