@@ -87,6 +87,9 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
                     model.geom_contype[g], model.geom_conaffinity[g] = GRASPED_BITS
             elif e["event"] == "grasp" and o in objects and e["frame"] in body:
                 after = plan.states[e["state"] + 1].objects.get(o)
+                if after is not None:
+                    off = float(np.linalg.norm(_pose(data, objects[o])[:3, 3] - after[:3, 3]))
+                    report.displaced[o] = max(report.displaced.get(o, 0.0), off)
                 _grasp(model, data, sim.welds[o], body[e["frame"]],
                        after if after is not None else _pose(data, objects[o]), geoms[o])
                 held[o] = e["frame"]
