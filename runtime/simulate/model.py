@@ -30,7 +30,7 @@ FRICTION = (1.0, 0.01, 0.001)
 TIMESTEP = 0.002
 #: Hz: each joint's position loop is a critically damped oscillator of this natural frequency
 #: at the inertia the joint sees in the plan's first configuration (:func:`set_gains`)
-TRACKING_HZ = 10.0
+TRACKING_HZ = 20.0
 #: kg·m² (kg for a prismatic joint): the rotor inertia given to joints whose URDF has none
 ARMATURE = 0.1
 #: the grasp weld's stiffness (time constant s, damping ratio): as stiff as the time step allows
@@ -186,8 +186,9 @@ def build_model(world, start_objects: dict[str, np.ndarray], base: np.ndarray | 
 def set_gains(sim: SimModel, data) -> np.ndarray:
     """Give each joint's actuator its gains at ``data``'s configuration: kp = m ω², kv = 2 m ω
     (ω = 2π :data:`TRACKING_HZ`, m the joint's diagonal entry of the mass matrix, armature
-    included). Returns kv / kp per actuator: the actuator's target is ``q + (kv/kp) v`` for a
-    reference position q and velocity v, so it pulls with kp (q - q_now) + kv (v - v_now)."""
+    included). Returns kv / kp per actuator: the actuator's target is ``q + (kv/kp) v + a/ω²``
+    for a reference position q, velocity v and acceleration a, so it pulls with
+    kp (q - q_now) + kv (v - v_now) + m a (the diagonal part of the inertial feed-forward)."""
     import mujoco
     model = sim.model
     M = np.zeros((model.nv, model.nv))

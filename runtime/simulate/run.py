@@ -12,8 +12,8 @@ import numpy as np
 
 from tmpc.lang.source import SourceFile
 from tmpc.runtime.plans import parse_plan
-from tmpc.runtime.simulate.model import GRASPED_BITS, SCENE_BITS, build_model, fail, \
-    joint_children, mimics, set_gains
+from tmpc.runtime.simulate.model import GRASPED_BITS, SCENE_BITS, TRACKING_HZ, build_model, \
+    fail, joint_children, mimics, set_gains
 from tmpc.runtime.simulate.report import DRIFT_LIMIT, SimReport
 from tmpc.runtime.timing import BASE_JOINTS, base_pose_values, events
 from tmpc.runtime.validate import quat_from_matrix, validate_plan
@@ -50,7 +50,7 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
     timed = np.array([act[n] for n in names], int)
     follow = [(act[n], act[m], k, off) for n, (m, k, off) in mimics(world).items()
               if n in act and m in act]
-    ts, qs, vs = _timeline(doc, names, ref0[timed])
+    ts, qs, vs, accs = _timeline(doc, names, ref0[timed])
     body = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i): i for i in range(model.nbody)}
     for joint, child in joint_children(world).items():     # frames named by their joint
         if child in body:
@@ -72,6 +72,10 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
     at = np.arange(steps) * model.opt.timestep
     q_ref = np.stack([np.interp(at, ts, qs[:, j]) for j in range(len(names))], 1)
     v_ref = np.stack([np.interp(at, ts, vs[:, j]) for j in range(len(names))], 1)
+    # the timing's acceleration, held over each sample interval (piecewise constant, as toppra's)
+    a_ref = accs[np.clip(np.searchsorted(ts, at, side="right") - 1, 0, len(ts) - 1)]
+    a_ref[at >= ts[-1]] = 0.0
+    inertial = 1.0 / (2 * np.pi * TRACKING_HZ) ** 2
     names_of = {i: n for n, i in body.items()}
     tracking = np.zeros(len(names))
     next_trace = 0.0
@@ -103,12 +107,13 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
                 released[o] = None
         ref = ref0.copy()
         vel = np.zeros_like(ref0)
-        ref[timed], vel[timed] = q_ref[step], v_ref[step]
+        acc = np.zeros_like(ref0)
+        ref[timed], vel[timed], acc[timed] = q_ref[step], v_ref[step], a_ref[step]
         for a, m, k, off in follow:
             ref[a], vel[a] = k * ref[m] + off, k * vel[m]
         if t <= duration:
             tracking = np.maximum(tracking, np.abs(data.qpos[qadr[timed]] - ref[timed]))
-        data.ctrl[:] = ref + lead * vel
+        data.ctrl[:] = ref + lead * vel + inertial * acc
         if trace and t >= next_trace - 1e-9:
             report.trace.append(_sample(data, sim, qadr, objects))
             next_trace += TRACE_DT
@@ -213,17 +218,20 @@ def _sample(data, sim, qadr, objects):
 
 
 def _timeline(doc, names, q0):
-    """Every sample of every motion in plan time (rests between motions included)."""
-    ts, qs, vs = [], [], []
+    """Every sample of every motion in plan time (rests between motions included): times,
+    positions, velocities, accelerations."""
+    ts, qs, vs, accs = [], [], [], []
     for m in doc["timing"]["motions"]:
         ts += m["t"]
         qs += m["positions"]
         vs += m["velocities"]
+        accs += m["accelerations"]
     if not ts:
-        return np.array([0.0]), np.array([q0]), np.zeros((1, len(names)))
+        zero = np.zeros((1, len(names)))
+        return np.array([0.0]), np.array([q0]), zero, zero
     ts = np.array(ts)
     order = np.argsort(ts, kind="stable")
-    return ts[order], np.array(qs)[order], np.array(vs)[order]
+    return ts[order], np.array(qs)[order], np.array(vs)[order], np.array(accs)[order]
 
 
 def _pose(data, body: int) -> np.ndarray:

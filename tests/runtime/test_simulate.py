@@ -43,8 +43,8 @@ def test_a_good_plan_settles(good_report):
     assert max(report.tilt.values()) < np.radians(5), report.text()
     assert report.goal_holds, report.text()
     assert report.ok()
-    # the actuators follow the timing: within 5 mrad of every timed joint's reference
-    assert report.tracking and 0 < report.max_tracking < 0.005, report.tracking
+    # the actuators follow the timing: within 2 mrad of every timed joint's reference
+    assert report.tracking and 0 < report.max_tracking < 0.002, report.tracking
     assert report.contacts == []
 
 
