@@ -397,6 +397,8 @@ _TABLE = (
                         "toppra finds no profile for (`tmpc time`, `run --timed`)"),
     Code("E833", ERROR, "`tmpc simulate`: MuJoCo is not installed, or cannot build the robot or "
                         "scene (the message says which part)"),
+    Code("E835", ERROR, "`tmpc simulate --html`: the page cannot be written (no such directory, "
+                        "no permission)"),
     Code("E814", ERROR, "`tmpc view --state I` (a PNG snapshot) with no state I in the plan"),
     Code("E815", ERROR, "a viewer output (`--html`, `--png`) that cannot be written (no such "
                         "directory, no permission)"),

@@ -29,6 +29,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from tmpc.lang.fileio import atomic_write_bytes, atomic_write_text
+from tmpc.runtime.bench.physics import physics_table
 from tmpc.runtime.bench.results import read_results
 from tmpc.runtime.bench.sweep import cost_at, quantile
 from tmpc.runtime.repair import edits_figure, repair_table
@@ -196,7 +197,8 @@ def summary_table(recs: list[dict]) -> str:
             + (f"{sum(r['valid'] is False for r in checked)}/{len(checked)}" if checked
                else "not checked") + " | "
             f"{t(med([(r.get('load_before') or [None])[0] for r in rs]))} |")
-    return "\n".join(lines) + "\n"
+    physics = physics_table(recs)
+    return "\n".join(lines) + "\n" + ("\n" + physics if physics else "")
 
 
 def _axes(title: str, xlabel: str, ylabel: str):

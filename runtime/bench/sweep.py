@@ -41,6 +41,7 @@ import numpy as np
 from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, TmpcError, error, render, sort_key, use_color
 from tmpc.lang.fileio import atomic_write_text, unwritable
+from tmpc.runtime.bench.physics import physics_record, physics_table
 from tmpc.runtime.planners import make_planner
 from tmpc.runtime.plans import action_text, file_digest, plan_document, write_json_atomic
 from tmpc.runtime.problem import PlanningProblem
@@ -201,6 +202,10 @@ class Bench:
         rec["valid"] = None
         if self.args.validate and rec["solved"]:
             self._validate(problem, prec, result, rec)
+        if getattr(self.args, "simulate", False) and rec["solved"]:
+            rec["physics"] = physics_record(problem.world, plan_document(
+                problem, result, planner=planner, seed=seed, input_path=prec["input"],
+                setup_seconds=prec.get("setup_seconds", 0)))
         if not getattr(self.args, "quiet", False):
             self._progress(rec)
         return rec
@@ -281,7 +286,8 @@ class Bench:
         a = self.args
         return ["tmpc", "bench", *map(str, a.inputs), "--planners", ",".join(self.planners),
                 "--seeds", str(a.seeds), "--time-limit", f"{a.time_limit:g}",
-                *(["--validate"] if a.validate else [])]
+                *(["--validate"] if a.validate else []),
+                *(["--simulate"] if getattr(a, "simulate", False) else [])]
 
     def save(self, status: str = "running") -> None:
         if self.args.output:
@@ -328,7 +334,9 @@ class Bench:
         return rows
 
     def table(self) -> str:
-        return markdown_table(self.summary(), self.args.time_limit)
+        physics = physics_table(self.runs)
+        return markdown_table(self.summary(), self.args.time_limit) + (
+            "\n" + physics if physics else "")
 
 
 def build_problem(path, rec: dict, config_params=None):

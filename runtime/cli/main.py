@@ -306,7 +306,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("plan", metavar="PLAN.json", help="a plan (an untimed one is timed "
                        "first)")
         p.add_argument("--strict", action="store_true", help="exit 1 when a released object "
-                       "drifts more than 1 cm while settling or the goal no longer holds")
+                       "drifts more than 1 cm while settling, tips (> 5 degrees) or the goal "
+                       "no longer holds")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
         p.add_argument("--html", metavar="OUT.html", help="write the simulated motion as a "
                        "viewer page")
@@ -381,6 +382,8 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
                        "log format (ompl_benchmark_statistics.py / Planner Arena read it)")
         p.add_argument("--validate", action="store_true", help="check every plan with the "
                        "independent validator")
+        p.add_argument("--simulate", action="store_true", help="time every solved plan and "
+                       "replay it in MuJoCo: a physics column (settled, drift; docs/physics.md)")
         g = p.add_argument_group("distributed sweeps (docs/bench.md); any of these, or -o "
                                  "R.jsonl, runs each run as a task; `tmpc bench report "
                                  "R.jsonl [report.json] -o DIR` draws plots and tables of "

@@ -1,6 +1,7 @@
 """`tmpc simulate INPUT PLAN [--strict] [--json] [--html OUT]`: replay a plan in MuJoCo (an
-untimed one is timed first) and report drift, contacts and the goal after settling. Exit 0; 1
-with --strict when a drift passes 1 cm or the goal no longer holds."""
+untimed one is timed first) and report drift, contacts and the goal after settling
+(docs/physics.md). Exit 0; 1 with --strict when a drift passes 1 cm, an object tips or the goal
+no longer holds."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from tmpc.compiler.artifact import open_world
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.cli.exits import EXIT_ERROR, EXIT_OK
 from tmpc.runtime.plans import check_plan_fits, read_plan
-from tmpc.runtime.simulate import simulate
+from tmpc.runtime.simulate import simulate, write_sim_html
 from tmpc.runtime.timing import time_world_plan
 
 
@@ -32,9 +33,11 @@ def physics(world, args) -> int:
     if "timing" not in doc or any(s.get("t") is None for s in doc["states"]):
         time_world_plan(world, doc, getattr(args, "max_accel", None),
                         getattr(args, "dt", None) or 0.05)
-    report = simulate(world, doc, getattr(args, "settle", 1.0))
-    if getattr(args, "html", None):
-        sys.stderr.write("tmpc simulate: --html is not written yet (docs/robot-export.md)\n")
+    html = getattr(args, "html", None)
+    report = simulate(world, doc, getattr(args, "settle", 1.0), trace=bool(html))
+    if html:
+        size = write_sim_html(world, doc, report.trace, html)
+        sys.stderr.write(f"wrote {html} ({size / 1e6:.1f} MB, {len(report.trace)} frames)\n")
     if getattr(args, "json", False) and not getattr(args, "physics", False):
         sys.stdout.write(json.dumps(report.as_json(), indent=2) + "\n")
     else:

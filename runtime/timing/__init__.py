@@ -8,6 +8,7 @@ from tmpc.runtime.timing.limits import JointLimit as JointLimit
 from tmpc.runtime.timing.limits import joint_limits as joint_limits
 from tmpc.runtime.timing.limits import mimic_joints as mimic_joints
 from tmpc.runtime.timing.parameterize import DEFAULT_DT as DEFAULT_DT
+from tmpc.runtime.timing.parameterize import base_pose_values as base_pose_values
 from tmpc.runtime.timing.parameterize import moving_joints as moving_joints
 from tmpc.runtime.timing.parameterize import time_plan as time_plan
 from tmpc.runtime.timing.parameterize import time_segment as time_segment

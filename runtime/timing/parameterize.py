@@ -46,6 +46,11 @@ def moving_joints(doc: dict, skip=()) -> list[str]:
     return names
 
 
+def base_pose_values(state) -> tuple[float, float, float]:
+    """A state's base pose as the base's virtual joints (x, y, yaw)."""
+    return _base(state)
+
+
 def _base(state) -> tuple[float, float, float]:
     b = state.get("base_pose") or {}
     t = b.get("translation", [0.0, 0.0, 0.0])

@@ -33,8 +33,9 @@ def test_one_sided_bounds_and_negated_bands_are_left_alone():
 
 
 def test_released_cubes_rest_in_the_middle_of_rests_on_gap(tabletop_world):
-    """Projections of `place` (its `resting` is `rests-on`: a gap of 0-8 mm) from random
-    starts, with the red cube held: the gaps where it holds sit around the band's middle."""
+    """Projections of `place` (its `resting` is `rests-on`: a gap of 0-3 mm) from random
+    starts, with the red cube held: the gaps where it holds sit around the band's middle
+    quarter, 1.1-1.9 mm."""
     from tmpc.compiler.state import WorldState, world_poses
     from tmpc.runtime.solve import plan_problem
     problem, result, _ = plan_problem(tabletop_world, "unified", seed=1, time_limit=60.0)
@@ -49,7 +50,7 @@ def test_released_cubes_rest_in_the_middle_of_rests_on_gap(tabletop_world):
         gaps.append((T[2, 3] - 0.025 - 0.41) * 1000)      # mm above the tray's floor
     assert len(gaps) >= 10
     q1, median, q3 = np.percentile(gaps, [25, 50, 75])
-    assert 2.0 <= q1 and q3 <= 6.5 and 3.0 <= median <= 5.5, np.round(gaps, 2)
+    assert 0.75 <= q1 and q3 <= 2.5 and 1.0 <= median <= 2.25, np.round(gaps, 2)
 
 
 def test_an_alignment_aims_at_a_quarter_of_its_tolerance():
