@@ -20,6 +20,7 @@ from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXI
 from tmpc.runtime.cli.output import print_diagnostics
 from tmpc.runtime.interrupts import install as install_interrupts
 from tmpc.runtime.planners import ENGINES, PLANNERS
+from tmpc.runtime.planners import DEFAULT_MOTION_PLANNER, MOTION_PLANNERS, SIMPLIFIERS
 
 # ---------------------------------------------------------------------------------------------
 # commands
@@ -260,6 +261,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--timed", action="store_true", help="give the plan a time-optimal "
                        "timing (toppra, the URDF's limits; docs/robot-export.md)")
         _timing_options(p)
+        _ompl_options(p)
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
                        "imports, load, compile, deserialize, first-call compile, planning, output")
@@ -405,6 +407,20 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
                        help="change nothing; exit 1 if a file would be reformatted")
+
+
+def _ompl_options(p: argparse.ArgumentParser) -> None:
+    """`tmpc run`'s options of the decoupled planner and the simplifier (issue Q, docs/ompl.md)."""
+    p.add_argument("--motion-planner", default=None, metavar="NAME",
+                   help=f"decoupled: each motion's planner (default {DEFAULT_MOTION_PLANNER}): "
+                   + ", ".join(MOTION_PLANNERS))
+    p.add_argument("--motion-budget", type=SECONDS, default=None, metavar="S",
+                   help="decoupled: seconds per motion before the next transition sample "
+                   "(default 2)")
+    p.add_argument("--simplify", choices=SIMPLIFIERS, default=None,
+                   help="what shortens the final plan's motions: tmpc (default: the planner's "
+                   "own shortcuts and refinement) or ompl (then OMPL's PathSimplifier, each "
+                   "result checked by tmpc's motion checker)")
 
 
 def _timing_options(p: argparse.ArgumentParser) -> None:
