@@ -100,6 +100,11 @@ def cmd_repair(args) -> int:
     return run_repair(args)
 
 
+def cmd_motion(args) -> int:
+    from tmpc.runtime.cli.motion import run_motion
+    return run_motion(args)
+
+
 def cmd_lsp(args) -> int:
     from tmpc.runtime.cli.lsp import run_lsp
     return run_lsp(args)
@@ -128,6 +133,8 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "bench": (cmd_bench, "benchmark planners over problems, seeds and parameters (a local "
               "pool or Ray; JSON, table, OMPL log, plots)"),
     "lsp": (cmd_lsp, "language server for editors (stdio; --tcp PORT)"),
+    "motion": (cmd_motion, "one collision-free motion in one mode, by an OMPL planner or "
+               "tmpc's own"),
     "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
 
@@ -147,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: the commands that load legacy Lua predicates (and take the sandbox's limits)
 LUA_COMMANDS = {"check", "compile", "eval", "sample", "run", "validate"}
+LUA_COMMANDS |= {"motion"}
 
 
 def _configure(name: str, p: argparse.ArgumentParser) -> None:
@@ -403,6 +411,23 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--docs", metavar="DIR", help="`bench report --docs DIR -o FILE.md`: "
                        "render the performance document from the results files in DIR "
                        "(docs/bench.md)")
+    elif name == "motion":
+        p.add_argument("input", metavar="INPUT", help="a run configuration or artifact")
+        p.add_argument("--from", dest="start", required=True, metavar="S1",
+                       help="a state file, `start` (the scene's) or `random` (collision-free, "
+                       "from --seed)")
+        p.add_argument("--to", dest="goal", required=True, metavar="S2", help="as --from")
+        p.add_argument("--planner", default=DEFAULT_MOTION_PLANNER, metavar="NAME",
+                       help=f"ompl:NAME or tmpc (default {DEFAULT_MOTION_PLANNER}): "
+                       + ", ".join(MOTION_PLANNERS))
+        p.add_argument("--mode", default=None, metavar="M", help="`start` or a state file: "
+                       "where the objects are and what the robot holds (default: the --from "
+                       "state file's, else the scene's start)")
+        p.add_argument("--seed", type=COUNT, default=0, help="random seed (default 0)")
+        p.add_argument("--time-limit", type=SECONDS, default=10.0, metavar="S",
+                       help="give up after S seconds (exit 3; default 10)")
+        p.add_argument("--json", action="store_true", help="print the path, its length and "
+                       "the time as JSON")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",

@@ -138,6 +138,7 @@ _LAZY = {
     "AStarPlanner": "tmpc.runtime.planners.astar",
     "DecoupledPlanner": "tmpc.runtime.planners.decoupled",
     "plan_motion": "tmpc.runtime.planners.decoupled",
+    "check_motion_planner": "tmpc.runtime.planners.decoupled",
     "simplify_result": "tmpc.runtime.planners.decoupled",
 }
 

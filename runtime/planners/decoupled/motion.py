@@ -69,6 +69,8 @@ def plan_motion(problem: PlanningProblem, mode: Mode, q0: np.ndarray, q1: np.nda
     check_motion_planner(planner)
     q0, q1 = np.asarray(q0, float), np.asarray(q1, float)
     t = time.perf_counter()
+    if np.abs(problem.difference(q1, q0)).max() <= 1e-12:
+        return MotionResult(np.stack([q0, q1]), "exact", 0.0, 0.0, planner)
     if planner == "tmpc":
         rng = np.random.default_rng(seed)
         Q = lazy_prm(problem, mode, q0, q1, rng, t + time_limit, resolution)
