@@ -341,6 +341,8 @@ _TABLE = (
                         " state file"),
     Code("E853", ERROR, "`tmpc motion`: an end state in collision or outside the joint limits"),
     Code("E854", ERROR, "`tmpc motion --from/--to random`: no collision-free random state found"),
+    Code("E855", ERROR, "an unknown simplifier (`--simplify`, the API's `simplify=`): not `tmpc` "
+                        "or `ompl`"),
     Code("E857", ERROR, "OMPL cannot be imported (`--motion-planner ompl:...`, `--simplify "
                         "ompl`, `tmpc motion`)"),
 

@@ -109,8 +109,12 @@ def make_planner(name: str, problem, seed: int = 0, overrides: Mapping | None = 
     spec = PLANNERS.get(name)
     if spec is None:
         raise unknown_planner(name)
+    simplify = (overrides or {}).get("simplify")
+    if simplify is not None and simplify not in SIMPLIFIERS:
+        raise InputError(error("E855", f"unknown simplifier `{simplify}`", None,
+                               "simplifiers: " + ", ".join(SIMPLIFIERS)))
     algo = spec.factory(problem, seed, dict(overrides or {}))
-    if (overrides or {}).get("simplify") == "ompl":
+    if simplify == "ompl":
         # --simplify ompl: OMPL's PathSimplifier on the final plan's motions (issue Q)
         from tmpc.runtime.planners.decoupled import OmplSimplified
         algo = OmplSimplified(algo, problem, seed)
