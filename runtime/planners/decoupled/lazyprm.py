@@ -6,8 +6,8 @@ collision-free uniform samples (one batched state check per batch), joins each v
 ``k`` nearest by the composite length (:meth:`tmpc.runtime.problem.PlanningProblem.cost`), and
 runs Dijkstra over the edges not yet known invalid; the edges of a found path are checked
 together (one batched motion check) and the search repeats until a path's edges all hold, or
-a new batch is drawn. :func:`shortcut` then tries random shortcuts, a round of them per
-batched check. Deterministic from the generator it is given.
+a new batch is drawn. :func:`shortcut` then tries random shortcuts between points anywhere
+along the path, a round of them per batched check. Deterministic from the generator it is given.
 """
 
 from __future__ import annotations
@@ -48,27 +48,43 @@ def lazy_prm(p: PlanningProblem, mode: Mode, q0: np.ndarray, q1: np.ndarray,
 
 
 def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Generator,
-             rounds: int = 8, tries: int = 16, resolution: float = 0.05) -> np.ndarray:
-    """``Q`` with random shortcuts taken: per round, ``tries`` pairs (i, j) checked in one
-    batch, the valid one saving the most length taken. Ends kept."""
+             rounds: int = 32, tries: int = 16, resolution: float = 0.05) -> np.ndarray:
+    """``Q`` with random shortcuts taken between points anywhere along it (not only its
+    vertices): per round, ``tries`` pairs of points drawn by length along the path, the three
+    new pieces of each (to the first point, between them, from the second) checked in one
+    batch, and the valid pair saving the most length taken. Ends kept."""
     Q = np.asarray(Q, float)
     for _ in range(rounds):
-        if len(Q) < 3:
+        if len(Q) < 3:             # a straight motion: nothing to cut
             break
-        pairs = {tuple(sorted(rng.choice(len(Q), size=2, replace=False))) for _ in range(tries)}
-        pairs = [(i, j) for i, j in pairs if j - i >= 2]
-        if not pairs:
+        seg = np.array([p.cost(Q[n + 1:n + 2], Q[n])[0] for n in range(len(Q) - 1)])
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        if cum[-1] <= 1e-12:
+            break
+        T = np.sort(rng.uniform(0.0, cum[-1], (tries, 2)), axis=1)
+        ia, A = _points(p, Q, cum, seg, T[:, 0])
+        ib, B = _points(p, Q, cum, seg, T[:, 1])
+        gain = (T[:, 1] - T[:, 0]) - np.array([p.cost(b[None], a)[0] for a, b in zip(A, B)])
+        keep = (gain > 1e-9) & (ia < ib)
+        if not keep.any():
             continue
-        ii, jj = np.array([i for i, _ in pairs]), np.array([j for _, j in pairs])
-        ok = p.motions_valid(mode, Q[ii], Q[jj], resolution)
-        seg = np.concatenate([[0.0], np.cumsum([p.cost(Q[n + 1:n + 2], Q[n])[0]
-                                               for n in range(len(Q) - 1)])])
-        gain = [(seg[j] - seg[i] - p.cost(Q[j:j + 1], Q[i])[0], i, j)
-                for (i, j), good in zip(pairs, ok) if good]
-        if gain:
-            _, i, j = max(gain)
-            Q = np.vstack([Q[:i + 1], Q[j:]])
+        idx = np.nonzero(keep)[0]
+        ok = p.motions_valid(mode, np.vstack([Q[ia[idx]], A[idx], B[idx]]),
+                             np.vstack([A[idx], B[idx], Q[ib[idx] + 1]]), resolution,
+                             ends=True).reshape(3, -1).all(axis=0)
+        if not ok.any():
+            continue
+        k = idx[np.nonzero(ok)[0][np.argmax(gain[idx][ok])]]
+        Q = np.vstack([Q[:ia[k] + 1], A[k][None], B[k][None], Q[ib[k] + 1:]])
     return Q
+
+
+def _points(p: PlanningProblem, Q: np.ndarray, cum: np.ndarray, seg: np.ndarray,
+            t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The segment index and the point at length ``t`` along ``Q`` (per entry of ``t``)."""
+    i = np.clip(np.searchsorted(cum, t, side="right") - 1, 0, len(Q) - 2)
+    frac = np.where(seg[i] > 0, (t - cum[i]) / np.where(seg[i] > 0, seg[i], 1.0), 0.0)
+    return i, p.wrap(Q[i] + frac[:, None] * p.difference(Q[i + 1], Q[i]))
 
 
 def _key(a: int, b: int) -> tuple[int, int]:

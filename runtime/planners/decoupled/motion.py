@@ -39,8 +39,9 @@ class MotionResult:
 
 
 def check_motion_planner(name: str) -> str:
-    """``name`` if it is a motion planner (:data:`tmpc.runtime.planners.decoupled.MOTION_PLANNERS`);
-    E850 with the closest names otherwise."""
+    """``name`` if it is a motion planner
+    (:data:`tmpc.runtime.planners.decoupled.MOTION_PLANNERS`); E850 with the closest names
+    otherwise."""
     if name in MOTION_PLANNERS:
         return name
     close = difflib.get_close_matches(name, MOTION_PLANNERS, n=3, cutoff=0.5)

@@ -7,11 +7,11 @@ optimal planner uses them: the shortest plan consistent with what was learnt, th
 prefix through its first step that never succeeded excluded and blockers pinned before the next
 one (thesis §4.3.5). A plan is followed depth first: at each step, up to ``samples`` transition
 configurations are projected onto the action's geometric precondition (the first from the
-current configuration, the rest from uniform starts; collision-free in the current mode), and
-the motion to each is planned (``motion_planner``, ``motion_budget`` seconds) until one
-succeeds; the step's successor mode is then derived at that configuration. A step none of
-whose samples can be reached sends the search back to the previous step's next sample; a plan
-whose first step is exhausted, or whose motions took ``plan_budget`` attempts, is given up for
+current configuration, seven around it, eight uniform; collision-free in the current mode;
+nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget``
+seconds) until one succeeds; the step's successor mode is then derived at that
+configuration. A step none of whose samples can be reached sends the search back to the
+previous step's next sample; a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts, is given up for
 the next task plan. A goal with geometric literals is one more step (the goal's projection).
 Each motion is shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`)
 unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on the final plan instead).
@@ -45,6 +45,7 @@ class DecoupledOptions:
     projection_iterations: int = 30    # as the optimal planner's
     resolution: float = 0.05           # motion-check resolution (the validator's default)
     shortcut: bool = True              # tmpc's shortcuts on each motion (off: --simplify ompl)
+    shortcut_rounds: int = 32          # ... rounds of 16 tries, each round one batched check
     min_steps: int = 0
     max_steps: int = 100
 
@@ -59,6 +60,8 @@ class DecoupledPlanner:
         self.opt = options
         self.seed = seed
         self.rng = np.random.default_rng(seed)
+        # the shortcuts' own stream: the transitions drawn do not depend on --simplify
+        self.shortcut_rng = np.random.default_rng([seed, 1])
         self.counts = {"task_plans": 0, "evidence": 0, "transition_samples": 0,
                        "transition_failures": 0, "transitions": 0, "motions": 0,
                        "motion_failures": 0, "backtracks": 0}
@@ -189,12 +192,17 @@ class DecoupledPlanner:
 
     def transition_samples(self, mode: Mode, action, q: np.ndarray, tr) -> list[np.ndarray]:
         """Up to ``samples`` collision-free configurations where ``action``'s geometric
-        precondition (the goal's for None) holds in ``mode``: projected from ``q`` and from
-        uniform starts. An action without geometry happens at ``q``."""
+        precondition (the goal's for None) holds in ``mode``, the nearest to ``q`` first:
+        projected from ``q`` and from uniform starts. An action without geometry happens at
+        ``q``."""
         p = self.p
         if action is not None and not p.has_geometry(action):
             return [q.copy()]
-        starts = np.vstack([q[None], p.uniform(self.rng, PROJECTION_BATCH - 1)])
+        # the current configuration, 7 starts around it (a tenth of each joint's range) and
+        # 8 uniform ones: nearby transitions first, far ones when those fail
+        near = q + self.rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) \
+            * (p.upper - p.lower)
+        starts = np.vstack([q[None], p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
         self.counts["transition_samples"] += len(starts)
         Qp, holds, dist = p.project_raw(mode, action, starts,
                                         iterations=self.opt.projection_iterations)
@@ -208,6 +216,8 @@ class DecoupledPlanner:
             else:
                 tr.record_failure(mode, qp, bool(h), float(d))
                 self.counts["transition_failures"] += 1
+        if out:                              # the nearest first: shorter motions
+            out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
         return out[:self.opt.samples]
 
     def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray,
@@ -228,5 +238,6 @@ class DecoupledPlanner:
             return None
         Q = res.path
         if self.opt.shortcut and self.opt.motion_planner != "tmpc":
-            Q = shortcut(self.p, mode, Q, self.rng, resolution=self.opt.resolution)
+            Q = shortcut(self.p, mode, Q, self.shortcut_rng, rounds=self.opt.shortcut_rounds,
+                         resolution=self.opt.resolution)
         return Q
