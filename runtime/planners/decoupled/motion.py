@@ -139,7 +139,8 @@ def simplify_result(problem: PlanningProblem, result, seed: int = 0, budget: flo
     t = time.perf_counter()
     path, stats = simplify_path(problem, result.path, seed, budget)
     stats["seconds"] = round(time.perf_counter() - t, 4)
-    new_stats = dict(result.stats, simplify=stats)
+    new_stats = dict(result.stats, simplify=stats,
+                     **{f"simplify_{k}": v for k, v in stats.items()})   # flat: bench's counts
     if new_stats.get("cost") is not None:
         new_stats["cost"] = stats["length_after"]
     changes = {"path": path, "stats": new_stats}
