@@ -11,8 +11,10 @@ current configuration, seven around it, eight uniform; collision-free in the cur
 nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget``
 seconds) until one succeeds; the step's successor mode is then derived at that
 configuration. A step none of whose samples can be reached sends the search back to the
-previous step's next sample; a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts, is given up for
-the next task plan. A goal with geometric literals is one more step (the goal's projection).
+previous step's next sample; a plan whose first step is exhausted, or whose motions took
+``plan_budget`` attempts, is given up for the next task plan. When no task plan is left (the
+exclusions and blockers were learnt from a few samples per step, not proofs), task planning
+starts afresh with new samples, until the time limit. A goal with geometric literals is one more step (the goal's projection).
 Each motion is shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`)
 unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on the final plan instead).
 Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
@@ -64,7 +66,7 @@ class DecoupledPlanner:
         self.shortcut_rng = np.random.default_rng([seed, 1])
         self.counts = {"task_plans": 0, "evidence": 0, "transition_samples": 0,
                        "transition_failures": 0, "transitions": 0, "motions": 0,
-                       "motion_failures": 0, "backtracks": 0}
+                       "motion_failures": 0, "backtracks": 0, "task_restarts": 0}
         self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
                                                        max_steps=options.max_steps),
                                self.counts)
@@ -125,8 +127,11 @@ class DecoupledPlanner:
             self.motion_space()
             while time.perf_counter() < deadline:
                 if not self.tasks.next_plan(deadline):
-                    if self.tasks.exhausted:
-                        break
+                    if self.tasks.exhausted and self.counts["task_plans"] == 0:
+                        break                # not even one plan: the task is unsolvable
+                    if self.tasks.exhausted:  # what was learnt ruled everything out: afresh
+                        self.counts["task_restarts"] += 1
+                        self.tasks = TaskPlans(self.p, self.tasks.opt, self.counts)
                     continue
                 steps = [(tr.action, tr) for tr in self.tasks.plan_transitions]
                 if p.goal_formula() is not None:
