@@ -19,7 +19,10 @@ threshold of infinity), so they stop there too.
 
 from __future__ import annotations
 
+import atexit
+import gc
 import time
+import weakref
 
 import numpy as np
 
@@ -53,12 +56,27 @@ def motion_seed(seed: int, k: int) -> int:
     return (int(seed) * 1_000_003 + 7919 * int(k)) % 2_147_483_000
 
 
+#: the spaces alive, released before the interpreter exits (:func:`release_all`)
+_LIVE: weakref.WeakSet = weakref.WeakSet()
+
+
+def release_all() -> None:
+    """Drop every live space's OMPL objects (registered with ``atexit``): OMPL's bindings
+    report the objects still alive at exit as leaks, a screenful of noise after a normal run."""
+    for space in list(_LIVE):
+        space.release()
+    gc.collect()
+
+
 class MotionSpace:
     """OMPL's view of ``problem``'s configuration space, checked by tmpc in :attr:`mode`."""
 
     def __init__(self, problem: PlanningProblem, resolution: float = 0.05):
         ob, og, ou = ompl_modules()
         ou.setLogLevel(ou.LOG_ERROR)
+        if not _LIVE:
+            atexit.register(release_all)
+        _LIVE.add(self)
         self.p = problem
         self.resolution = resolution
         self.dim = n = len(problem.lower)
@@ -78,6 +96,10 @@ class MotionSpace:
         self.si.setStateValidityChecker(self.validity)
         self.si.setMotionValidator(self.motions)
         self.si.setup()
+
+    def release(self) -> None:
+        """Drop the OMPL objects (the space is unusable after)."""
+        self.si = self.space = self.validity = self.motions = None
 
     # ---- states and arrays --------------------------------------------------------------------
     def to_array(self, state) -> np.ndarray:
