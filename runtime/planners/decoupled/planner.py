@@ -15,8 +15,9 @@ previous step's next sample; a plan whose first step is exhausted, or whose moti
 ``plan_budget`` attempts, is given up for the next task plan. When no task plan is left (the
 exclusions and blockers were learnt from a few samples per step, not proofs), task planning
 starts afresh with new samples, until the time limit. A goal with geometric literals is one more step (the goal's projection).
-Each motion is shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`)
-unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on the final plan instead).
+The final plan's motions are shortcut by tmpc
+(:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`) unless ``simplify`` is ``ompl``
+(OMPL's simplifier then runs on them instead).
 Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
 """
 
@@ -31,7 +32,8 @@ import numpy as np
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.planners.decoupled import DEFAULT_MOTION_PLANNER
 from tmpc.runtime.planners.decoupled.lazyprm import shortcut
-from tmpc.runtime.planners.decoupled.motion import check_motion_planner, ompl_space, plan_motion
+from tmpc.runtime.planners.decoupled.motion import (check_motion_planner, mode_segments,
+                                                    ompl_space, plan_motion)
 from tmpc.runtime.planners.decoupled.space import motion_seed, path_cost
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
 from tmpc.runtime.planners.optimal.tasks import TaskPlans
@@ -46,7 +48,7 @@ class DecoupledOptions:
     plan_budget: int = 40              # motions tried per task plan before the next one
     projection_iterations: int = 30    # as the optimal planner's
     resolution: float = 0.05           # motion-check resolution (the validator's default)
-    shortcut: bool = True              # tmpc's shortcuts on each motion (off: --simplify ompl)
+    shortcut: bool = True              # tmpc's shortcuts on the plan (off: --simplify ompl)
     shortcut_rounds: int = 32          # ... rounds of 16 tries, each round one batched check
     min_steps: int = 0
     max_steps: int = 100
@@ -143,7 +145,7 @@ class DecoupledPlanner:
                 if progress is not None:
                     progress(self)
                 if found is not None:
-                    status, path = "solved", found
+                    status, path = "solved", self.shortcut(found)
                     break
         except KeyboardInterrupt:
             status = "interrupted"
@@ -195,6 +197,24 @@ class DecoupledPlanner:
                           None))
         return None
 
+    def shortcut(self, path: list) -> list:
+        """The final plan's OMPL motions shortcut by tmpc
+        (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, each motion in its mode)
+        unless ``shortcut`` is off (``--simplify ompl``) or tmpc planned them (its own
+        planner shortcuts already)."""
+        if not self.opt.shortcut or self.opt.motion_planner == "tmpc":
+            return path
+        t = time.perf_counter()
+        out = []
+        for seg in mode_segments(path):
+            mode = seg[0][1]
+            Q = shortcut(self.p, mode, np.array([q for q, _, _ in seg]), self.shortcut_rng,
+                         rounds=self.opt.shortcut_rounds, resolution=self.opt.resolution)
+            out.extend((q.copy(), mode, None) for q in Q[:-1])
+            out.append((Q[-1].copy(), seg[-1][1], seg[-1][2]))
+        self.counts["shortcut_seconds"] = round(time.perf_counter() - t, 4)
+        return out
+
     def transition_samples(self, mode: Mode, action, q: np.ndarray, tr) -> list[np.ndarray]:
         """Up to ``samples`` collision-free configurations where ``action``'s geometric
         precondition (the goal's for None) holds in ``mode``, the nearest to ``q`` first:
@@ -227,7 +247,7 @@ class DecoupledPlanner:
 
     def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray,
                deadline: float) -> np.ndarray | None:
-        """The motion q0 -> q1 in ``mode`` (shortcut by tmpc unless told not to), or None."""
+        """The motion q0 -> q1 in ``mode`` as the motion planner returns it, or None."""
         if np.abs(self.p.difference(q1, q0)).max() <= 1e-12:
             return q0[None].copy()          # an action without geometry: no motion
         budget = min(self.opt.motion_budget, deadline - time.perf_counter())
@@ -241,8 +261,4 @@ class DecoupledPlanner:
         if res.path is None:
             self.counts["motion_failures"] += 1
             return None
-        Q = res.path
-        if self.opt.shortcut and self.opt.motion_planner != "tmpc":
-            Q = shortcut(self.p, mode, Q, self.shortcut_rng, rounds=self.opt.shortcut_rounds,
-                         resolution=self.opt.resolution)
-        return Q
+        return res.path
