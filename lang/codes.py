@@ -360,6 +360,20 @@ _TABLE = (
     Code("E848", ERROR, "the repaired domain could not be written back"),
     Code("E849", ERROR, "a repair store that already holds observations, without --resume"),
 
+    # OMPL inside tmpc: the decoupled planner, `tmpc motion`, `--simplify ompl` (issue Q)
+    Code("E850", ERROR, "an unknown motion planner (`--motion-planner`, `tmpc motion "
+                        "--planner`): not `tmpc` or an `ompl:NAME` tmpc lists"),
+    Code("E851", ERROR, "`--planner decoupled`: a motion budget or a number of transition "
+                        "samples out of range"),
+    Code("E852", ERROR, "`tmpc motion`: `--from`/`--to`/`--mode` neither `start`, `random` nor a"
+                        " state file"),
+    Code("E853", ERROR, "`tmpc motion`: an end state in collision or outside the joint limits"),
+    Code("E854", ERROR, "`tmpc motion --from/--to random`: no collision-free random state found"),
+    Code("E855", ERROR, "an unknown simplifier (`--simplify`, the API's `simplify=`): not `tmpc` "
+                        "or `ompl`"),
+    Code("E857", ERROR, "OMPL cannot be imported (`--motion-planner ompl:...`, `--simplify "
+                        "ompl`, `tmpc motion`)"),
+
     # Plans (`tmpc validate`, `tmpc view`)
     Code("E800", ERROR, "a plan file that cannot be read or is not valid JSON"),
     Code("E801", ERROR, "a plan file that is neither a tmpc plan object nor an array of states"),

@@ -123,7 +123,8 @@ class World:
     def plan(self, planner: str = "optimal", seed: int = 0, time_limit: float | None = None,
              start: Start = None, first_solution: bool | None = None,
              options: dict[str, Any] | None = None,
-             progress: Callable[[Any], None] | None = None) -> Plan:
+             progress: Callable[[Any], None] | None = None,
+             simplify: str | None = None) -> Plan:
         """Plan from ``start`` (None: the scene's start) with the registered ``planner``; a
         :class:`Plan` whether or not one was found. ``time_limit``: the seconds to plan (and,
         for an anytime planner, to improve its plan); None: up to 120 s, stopping at the first
@@ -131,9 +132,12 @@ class World:
         ``time_limit`` is given); ``options``: the planner's other options (``tmpc run``'s
         flags, e.g. ``{"batch_size": 200}``). The first call sets up the planning problem;
         later calls reuse it (no load, no compile) and time their set-up in
-        :attr:`last_overhead`."""
+        :attr:`last_overhead`. ``simplify="ompl"``: OMPL's path simplifier on the final plan's
+        motions (``tmpc run --simplify ompl``; default ``"tmpc"``: the planner's own)."""
         t0 = time.perf_counter()
         overrides = dict(options or {})
+        if simplify is not None:
+            overrides["simplify"] = simplify
         if first_solution is None and time_limit is None:
             first_solution = True
         if first_solution is not None:

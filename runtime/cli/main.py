@@ -20,6 +20,7 @@ from tmpc.runtime.cli.exits import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXI
 from tmpc.runtime.cli.output import print_diagnostics
 from tmpc.runtime.interrupts import install as install_interrupts
 from tmpc.runtime.planners import ENGINES, PLANNERS
+from tmpc.runtime.planners import DEFAULT_MOTION_PLANNER, MOTION_PLANNERS, SIMPLIFIERS
 
 # ---------------------------------------------------------------------------------------------
 # commands
@@ -99,6 +100,11 @@ def cmd_repair(args) -> int:
     return run_repair(args)
 
 
+def cmd_motion(args) -> int:
+    from tmpc.runtime.cli.motion import run_motion
+    return run_motion(args)
+
+
 def cmd_lsp(args) -> int:
     from tmpc.runtime.cli.lsp import run_lsp
     return run_lsp(args)
@@ -127,6 +133,8 @@ COMMANDS: dict[str, tuple[Callable, str]] = {
     "bench": (cmd_bench, "benchmark planners over problems, seeds and parameters (a local "
               "pool or Ray; JSON, table, OMPL log, plots)"),
     "lsp": (cmd_lsp, "language server for editors (stdio; --tcp PORT)"),
+    "motion": (cmd_motion, "one collision-free motion in one mode, by an OMPL planner or "
+               "tmpc's own"),
     "cache": (cmd_cache, "show or empty the cache (compiled runs, kernels, XLA's cache)"),
 }
 
@@ -146,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: the commands that load legacy Lua predicates (and take the sandbox's limits)
 LUA_COMMANDS = {"check", "compile", "eval", "sample", "run", "validate"}
+LUA_COMMANDS |= {"motion"}
 
 
 def _configure(name: str, p: argparse.ArgumentParser) -> None:
@@ -260,6 +269,7 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--timed", action="store_true", help="give the plan a time-optimal "
                        "timing (toppra, the URDF's limits; docs/robot-export.md)")
         _timing_options(p)
+        _ompl_options(p)
         p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
         p.add_argument("-v", "--verbose", action="store_true", help="where setup time went: "
                        "imports, load, compile, deserialize, first-call compile, planning, output")
@@ -404,10 +414,41 @@ def _configure(name: str, p: argparse.ArgumentParser) -> None:
         p.add_argument("--docs", metavar="DIR", help="`bench report --docs DIR -o FILE.md`: "
                        "render the performance document from the results files in DIR "
                        "(docs/bench.md)")
+    elif name == "motion":
+        p.add_argument("input", metavar="INPUT", help="a run configuration or artifact")
+        p.add_argument("--from", dest="start", required=True, metavar="S1",
+                       help="a state file, `start` (the scene's) or `random` (collision-free, "
+                       "from --seed)")
+        p.add_argument("--to", dest="goal", required=True, metavar="S2", help="as --from")
+        p.add_argument("--planner", default=DEFAULT_MOTION_PLANNER, metavar="NAME",
+                       help=f"ompl:NAME or tmpc (default {DEFAULT_MOTION_PLANNER}): "
+                       + ", ".join(MOTION_PLANNERS))
+        p.add_argument("--mode", default=None, metavar="M", help="`start` or a state file: "
+                       "where the objects are and what the robot holds (default: the --from "
+                       "state file's, else the scene's start)")
+        p.add_argument("--seed", type=COUNT, default=0, help="random seed (default 0)")
+        p.add_argument("--time-limit", type=SECONDS, default=10.0, metavar="S",
+                       help="give up after S seconds (exit 3; default 10)")
+        p.add_argument("--json", action="store_true", help="print the path, its length and "
+                       "the time as JSON")
     elif name == "fmt":
         p.add_argument("files", nargs="+", metavar="FILE", help="files to format; - for stdin")
         p.add_argument("--check", action="store_true",
                        help="change nothing; exit 1 if a file would be reformatted")
+
+
+def _ompl_options(p: argparse.ArgumentParser) -> None:
+    """`tmpc run`'s options of the decoupled planner and the simplifier (issue Q, docs/ompl.md)."""
+    p.add_argument("--motion-planner", default=None, metavar="NAME",
+                   help=f"decoupled: each motion's planner (default {DEFAULT_MOTION_PLANNER}): "
+                   + ", ".join(MOTION_PLANNERS))
+    p.add_argument("--motion-budget", type=SECONDS, default=None, metavar="S",
+                   help="decoupled: seconds per motion before the next transition sample "
+                   "(default 2)")
+    p.add_argument("--simplify", choices=SIMPLIFIERS, default=None,
+                   help="what shortens the final plan's motions: tmpc (default: the planner's "
+                   "own shortcuts and refinement) or ompl (then OMPL's PathSimplifier, each "
+                   "result checked by tmpc's motion checker)")
 
 
 def _timing_options(p: argparse.ArgumentParser) -> None:

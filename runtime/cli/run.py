@@ -146,7 +146,10 @@ def planner_overrides(args) -> dict:
             "batch_size": getattr(args, "batch_size", None),
             "rewire": getattr(args, "rewire_factor", None),
             "first_solution": flag("first_solution"),
-            "until_converged": flag("until_converged")}
+            "until_converged": flag("until_converged"),
+            "motion_planner": getattr(args, "motion_planner", None),
+            "motion_budget": getattr(args, "motion_budget", None),
+            "simplify": getattr(args, "simplify", None)}
 
 
 def _report_setup(split: dict, result) -> None:

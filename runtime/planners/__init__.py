@@ -25,6 +25,10 @@ from tmpc.runtime.planners.engines import ENGINES as ENGINES
 from tmpc.runtime.planners.engines import EngineResult as EngineResult
 from tmpc.runtime.planners.engines import EngineSpec as EngineSpec
 from tmpc.runtime.planners.engines import Limits as Limits
+from tmpc.runtime.planners.decoupled import DEFAULT_MOTION_PLANNER as DEFAULT_MOTION_PLANNER
+from tmpc.runtime.planners.decoupled import DEFAULT_SIMPLIFIER as DEFAULT_SIMPLIFIER
+from tmpc.runtime.planners.decoupled import MOTION_PLANNERS as MOTION_PLANNERS
+from tmpc.runtime.planners.decoupled import SIMPLIFIERS as SIMPLIFIERS
 
 
 @dataclass(frozen=True)
@@ -51,12 +55,22 @@ def _optimal(problem, seed: int, overrides: dict):
     return OptimalPlanner.from_options(problem, seed, overrides)
 
 
+def _decoupled(problem, seed: int, overrides: dict):
+    from tmpc.runtime.planners.decoupled import DecoupledPlanner
+    return DecoupledPlanner.from_options(problem, seed, overrides)
+
+
 PLANNERS: dict[str, PlannerSpec] = {
     "unified": PlannerSpec(_unified, "composite-space RRT with the Algorithm 1 sampler "
-                           "(thesis ch. 2, planet)", ("heuristic_bias",)),
+                           "(thesis ch. 2, planet)", ("heuristic_bias", "simplify")),
     "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT task plans, lazy transitions, "
                            "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)",
-                           ("batch_size", "rewire", "first_solution", "until_converged")),
+                           ("batch_size", "rewire", "first_solution", "until_converged",
+                            "simplify")),
+    "decoupled": PlannerSpec(_decoupled, "the classical baseline: SAT task plans, projected "
+                             "transitions, each motion by an OMPL planner (--motion-planner), "
+                             "backtracking", ("motion_planner", "motion_budget", "samples",
+                                              "simplify")),
 }
 
 
@@ -95,7 +109,16 @@ def make_planner(name: str, problem, seed: int = 0, overrides: Mapping | None = 
     spec = PLANNERS.get(name)
     if spec is None:
         raise unknown_planner(name)
-    return spec.factory(problem, seed, dict(overrides or {}))
+    simplify = (overrides or {}).get("simplify")
+    if simplify is not None and simplify not in SIMPLIFIERS:
+        raise InputError(error("E855", f"unknown simplifier `{simplify}`", None,
+                               "simplifiers: " + ", ".join(SIMPLIFIERS)))
+    algo = spec.factory(problem, seed, dict(overrides or {}))
+    if simplify == "ompl":
+        # --simplify ompl: OMPL's PathSimplifier on the final plan's motions (issue Q)
+        from tmpc.runtime.planners.decoupled import OmplSimplified
+        algo = OmplSimplified(algo, problem, seed)
+    return algo
 
 
 def unknown_planner(name: str) -> InputError:
@@ -117,6 +140,10 @@ _LAZY = {
     "EXHAUSTED": "tmpc.runtime.planners.taskplan",
     "UNREACHABLE": "tmpc.runtime.planners.taskplan",
     "AStarPlanner": "tmpc.runtime.planners.astar",
+    "DecoupledPlanner": "tmpc.runtime.planners.decoupled",
+    "plan_motion": "tmpc.runtime.planners.decoupled",
+    "check_motion_planner": "tmpc.runtime.planners.decoupled",
+    "simplify_result": "tmpc.runtime.planners.decoupled",
 }
 
 
@@ -129,4 +156,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["PLANNERS", "PlannerSpec", "ENTRY_POINT_GROUP", "load_entry_points", "ENGINES", "EngineSpec", "EngineResult", "Limits",
+           "MOTION_PLANNERS", "DEFAULT_MOTION_PLANNER", "SIMPLIFIERS", "DEFAULT_SIMPLIFIER",
            "make_planner", "unknown_planner", *_LAZY]

@@ -1,0 +1,264 @@
+"""The ``decoupled`` planner's loop: a SAT task plan, transition configurations from the
+projection sampler, a motion planner between them, backtracking to new transition samples and
+then to the next task plan.
+
+Task plans come from :class:`~tmpc.runtime.planners.optimal.tasks.TaskPlans` exactly as the
+optimal planner uses them: the shortest plan consistent with what was learnt, the last plan's
+prefix through its first step that never succeeded excluded and blockers pinned before the next
+one (thesis §4.3.5). A plan is followed depth first: at each step, up to ``samples`` transition
+configurations are projected onto the action's geometric precondition (the first from the
+current configuration, seven around it, eight uniform; collision-free in the current mode;
+nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget``
+seconds) until one succeeds; the step's successor mode is then derived at that
+configuration. A step none of whose samples can be reached sends the search back to the
+previous step's next sample; a plan whose first step is exhausted, or whose motions took
+``plan_budget`` attempts, is given up for the next task plan. When no task plan is left (the
+exclusions and blockers were learnt from a few samples per step, not proofs), task planning
+starts afresh with new samples, until the time limit. A goal with geometric literals is one more step (the goal's projection).
+The final plan's motions are shortcut by tmpc
+(:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`) unless ``simplify`` is ``ompl``
+(OMPL's simplifier then runs on them instead).
+Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.planners.decoupled import DEFAULT_MOTION_PLANNER
+from tmpc.runtime.planners.decoupled.lazyprm import shortcut
+from tmpc.runtime.planners.decoupled.motion import (check_motion_planner, mode_segments,
+                                                    ompl_space, plan_motion)
+from tmpc.runtime.planners.decoupled.space import motion_seed, path_cost
+from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
+from tmpc.runtime.planners.optimal.tasks import TaskPlans
+from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
+
+
+@dataclass(frozen=True)
+class DecoupledOptions:
+    motion_planner: str = DEFAULT_MOTION_PLANNER
+    motion_budget: float = 2.0         # seconds per motion
+    samples: int = 4                   # transition configurations tried per step
+    plan_budget: int = 40              # motions tried per task plan before the next one
+    projection_iterations: int = 30    # as the optimal planner's
+    resolution: float = 0.05           # motion-check resolution (the validator's default)
+    shortcut: bool = True              # tmpc's shortcuts on the plan (off: --simplify ompl)
+    shortcut_rounds: int = 32          # ... rounds of 16 tries, each round one batched check
+    min_steps: int = 0
+    max_steps: int = 100
+
+
+class DecoupledPlanner:
+    """Task plan first, then motions (see the module docstring); ``solve(time_limit,
+    progress=None)``, stopping at the first solution."""
+
+    def __init__(self, problem: PlanningProblem, seed: int = 0,
+                 options: DecoupledOptions = DecoupledOptions()):
+        self.p = problem
+        self.opt = options
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        # the shortcuts' own stream: the transitions drawn do not depend on --simplify
+        self.shortcut_rng = np.random.default_rng([seed, 1])
+        self.counts = {"task_plans": 0, "evidence": 0, "transition_samples": 0,
+                       "transition_failures": 0, "transitions": 0, "motions": 0,
+                       "motion_failures": 0, "backtracks": 0, "task_restarts": 0}
+        self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
+                                                       max_steps=options.max_steps),
+                               self.counts)
+        self.space = None
+        self.mode_count = 1
+        self.motion_seconds = 0.0
+
+    @classmethod
+    def from_options(cls, problem: PlanningProblem, seed: int = 0,
+                     overrides: dict | None = None) -> "DecoupledPlanner":
+        """The registry's factory: ``motion_planner``, ``motion_budget``, ``samples`` and
+        ``simplify`` from the command line (``samples``, ``min_steps``, ``max_steps`` also
+        from the run configuration's [planner]). E850 for an unknown motion planner, E851 for
+        a value out of range."""
+        config = problem.world.config
+        params = dict(config.params) if config is not None else {}
+        over = {k: v for k, v in (overrides or {}).items() if v is not None}
+        base = DecoupledOptions()
+        opts = DecoupledOptions(
+            motion_planner=check_motion_planner(str(over.get("motion_planner",
+                                                             base.motion_planner))),
+            motion_budget=float(over.get("motion_budget", base.motion_budget)),
+            samples=int(over.get("samples", params.get("samples", base.samples))),
+            shortcut=over.get("simplify", "tmpc") != "ompl",
+            min_steps=int(params.get("min_steps", base.min_steps)),
+            max_steps=int(params.get("max_steps", base.max_steps)))
+        if not (opts.motion_budget > 0 and opts.samples >= 1):
+            raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget} or "
+                                   f"samples {opts.samples} out of range", None,
+                                   "the motion budget is > 0 seconds, samples >= 1"))
+        return cls(problem, seed, opts)
+
+    def warm_up_calls(self) -> list:
+        """The SAT task planner and the OMPL space, built beside the kernel loads."""
+        return [self.tasks.task_planner, self.motion_space]
+
+    # ---- what the run's progress line reads --------------------------------------------------
+    @property
+    def modes(self) -> range:
+        return range(self.mode_count)
+
+    @property
+    def node_mode(self) -> range:
+        return range(self.counts["motions"])
+
+    def motion_space(self):
+        if self.space is None and self.opt.motion_planner != "tmpc":
+            self.space = ompl_space(self.p, self.opt.resolution)
+        return self.space
+
+    # ---- the loop ----------------------------------------------------------------------------
+    def solve(self, time_limit: float, progress=None) -> OptimalResult:
+        t0 = time.perf_counter()
+        deadline = t0 + time_limit
+        p = self.p
+        status, path = "partial", [(p.q0.copy(), p.initial, None)]
+        try:
+            self.motion_space()
+            while time.perf_counter() < deadline:
+                if not self.tasks.next_plan(deadline):
+                    if self.tasks.exhausted and self.counts["task_plans"] == 0:
+                        break                # not even one plan: the task is unsolvable
+                    if self.tasks.exhausted:  # what was learnt ruled everything out: afresh
+                        self.counts["task_restarts"] += 1
+                        self.tasks = TaskPlans(self.p, self.tasks.opt, self.counts)
+                    continue
+                steps = [(tr.action, tr) for tr in self.tasks.plan_transitions]
+                if p.goal_formula() is not None:
+                    sym = p.ground.init
+                    for a in self.tasks.plan:
+                        sym = p.ground.apply(sym, a)
+                    steps.append((None, self.tasks.transition(sym, None, sym)))
+                found = self.follow(steps, deadline)
+                if progress is not None:
+                    progress(self)
+                if found is not None:
+                    status, path = "solved", self.shortcut(found)
+                    break
+        except KeyboardInterrupt:
+            status = "interrupted"
+            self.counts["interrupted"] = True
+        seconds = time.perf_counter() - t0
+        cost = path_cost(p, np.array([q for q, _, _ in path])) if status == "solved" else math.inf
+        stats = dict(self.counts, seconds=round(seconds, 4), modes=self.mode_count,
+                     nodes=len(path), cost=round(cost, 6) if status == "solved" else None,
+                     cost_trace=[[round(seconds, 4), round(cost, 6)]] if status == "solved"
+                     else [], first_solution_seconds=round(seconds, 4)
+                     if status == "solved" else None, motion_planner=self.opt.motion_planner,
+                     motion_seconds=round(self.motion_seconds, 4), time=p.timers.as_dict())
+        if self.space is not None:
+            stats.update(self.space.counts)
+        return OptimalResult(status, path, stats, cost)
+
+    def follow(self, steps: list, deadline: float) -> list | None:
+        """The plan ``steps`` (``(action, transition)``; action None: the goal) made geometric
+        depth first; the path of ``(q, mode, action)`` states, or None."""
+        p = self.p
+        budget = [self.opt.plan_budget]
+        # per depth: (q, mode, path so far, samples left to try)
+        stack = [(p.q0.copy(), p.initial, [], None)]
+        while stack and time.perf_counter() < deadline and budget[0] > 0:
+            q, mode, path, todo = stack.pop()
+            depth = len(stack)
+            if depth == len(steps):
+                return path + [(q, mode, None)]
+            action, tr = steps[depth]
+            if todo is None:
+                todo = self.transition_samples(mode, action, q, tr)
+            if not todo:
+                self.counts["backtracks"] += 1
+                continue
+            target, rest = todo[0], todo[1:]
+            stack.append((q, mode, path, rest))
+            motion = self.motion(mode, q, target, deadline)
+            budget[0] -= 1
+            if motion is None:
+                continue
+            tr.count(mode.id)
+            self.counts["transitions"] += 1
+            seg = [(x.copy(), mode, None) for x in motion[:-1]]
+            if action is None:               # the goal's literals hold: done
+                return path + seg + [(target.copy(), mode, None)]
+            succ = p.successor_mode(mode, action, target, self.mode_count)
+            self.mode_count += 1
+            stack.append((target.copy(), succ, path + seg + [(target.copy(), mode, action)],
+                          None))
+        return None
+
+    def shortcut(self, path: list) -> list:
+        """The final plan's OMPL motions shortcut by tmpc
+        (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, each motion in its mode)
+        unless ``shortcut`` is off (``--simplify ompl``) or tmpc planned them (its own
+        planner shortcuts already)."""
+        if not self.opt.shortcut or self.opt.motion_planner == "tmpc":
+            return path
+        t = time.perf_counter()
+        out = []
+        for seg in mode_segments(path):
+            mode = seg[0][1]
+            Q = shortcut(self.p, mode, np.array([q for q, _, _ in seg]), self.shortcut_rng,
+                         rounds=self.opt.shortcut_rounds, resolution=self.opt.resolution)
+            out.extend((q.copy(), mode, None) for q in Q[:-1])
+            out.append((Q[-1].copy(), seg[-1][1], seg[-1][2]))
+        self.counts["shortcut_seconds"] = round(time.perf_counter() - t, 4)
+        return out
+
+    def transition_samples(self, mode: Mode, action, q: np.ndarray, tr) -> list[np.ndarray]:
+        """Up to ``samples`` collision-free configurations where ``action``'s geometric
+        precondition (the goal's for None) holds in ``mode``, the nearest to ``q`` first:
+        projected from ``q`` and from uniform starts. An action without geometry happens at
+        ``q``."""
+        p = self.p
+        if action is not None and not p.has_geometry(action):
+            return [q.copy()]
+        # the current configuration, 7 starts around it (a tenth of each joint's range) and
+        # 8 uniform ones: nearby transitions first, far ones when those fail
+        near = q + self.rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) \
+            * (p.upper - p.lower)
+        starts = np.vstack([q[None], p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
+        self.counts["transition_samples"] += len(starts)
+        Qp, holds, dist = p.project_raw(mode, action, starts,
+                                        iterations=self.opt.projection_iterations)
+        ok = holds.copy()
+        if ok.any():
+            ok[ok] = p.valid_batch(mode, Qp[ok])
+        out = []
+        for qp, h, good, d in zip(Qp, holds, ok, dist):
+            if good:
+                out.append(p.wrap(qp))
+            else:
+                tr.record_failure(mode, qp, bool(h), float(d))
+                self.counts["transition_failures"] += 1
+        if out:                              # the nearest first: shorter motions
+            out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
+        return out[:self.opt.samples]
+
+    def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray,
+               deadline: float) -> np.ndarray | None:
+        """The motion q0 -> q1 in ``mode`` as the motion planner returns it, or None."""
+        if np.abs(self.p.difference(q1, q0)).max() <= 1e-12:
+            return q0[None].copy()          # an action without geometry: no motion
+        budget = min(self.opt.motion_budget, deadline - time.perf_counter())
+        if budget <= 0:
+            return None
+        k = self.counts["motions"]
+        self.counts["motions"] += 1
+        res = plan_motion(self.p, mode, q0, q1, self.opt.motion_planner, budget,
+                          motion_seed(self.seed, k), self.space, self.opt.resolution)
+        self.motion_seconds += res.seconds
+        if res.path is None:
+            self.counts["motion_failures"] += 1
+            return None
+        return res.path

@@ -1,0 +1,198 @@
+"""OMPL inside tmpc (issue Q): the decoupled planner, `tmpc motion` with OMPL's planners and
+tmpc's own, `--simplify ompl`, and OMPL loaded only where it is used.
+
+Plans are checked by the independent validator; single motions by tmpc's batched motion
+checker at the validator's resolution, their ends against the states asked for."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tests.support import ROOT, TABLETOP, run_tmpc
+from tmpc.lang.diagnostics import InputError
+from tmpc.runtime.planners import MOTION_PLANNERS, PLANNERS, check_motion_planner
+
+
+@pytest.fixture(scope="module")
+def tabletop_run(tabletop_world):
+    """(problem, result) of a decoupled run on tabletop, seed 0 (the problem is reused by
+    :func:`tmpc.runtime.solve.replan`)."""
+    from tmpc.runtime.solve import plan_problem
+    problem, result, _ = plan_problem(tabletop_world, "decoupled", seed=0, time_limit=60.0)
+    return problem, result
+
+
+def _validate(problem, result, name: str):
+    from tmpc.lang.source import SourceFile
+    from tmpc.runtime.plans import parse_plan, plan_document
+    from tmpc.runtime.validate import validate_plan
+    doc = plan_document(problem, result, planner=name, seed=0, input_path=str(TABLETOP),
+                        setup_seconds=0.0)
+    report = validate_plan(problem.world, parse_plan(SourceFile("<plan>", json.dumps(doc))))
+    return doc, report
+
+
+def test_decoupled_plan_validates_and_is_a_function_of_the_seed(tabletop_run):
+    from tmpc.runtime.solve import replan
+    problem, first = tabletop_run
+    assert first.status == "solved"
+    doc, report = _validate(problem, first, "decoupled")
+    assert report.valid, report.text()
+    assert len(doc["actions"]) == 4
+    assert first.stats["motions"] >= 4 and first.stats["motion_planner"] == "ompl:RRTConnect"
+    again, _ = replan(problem, "decoupled", seed=0, time_limit=60.0)
+    assert [q.tolist() for q, _, _ in again.path] == [q.tolist() for q, _, _ in first.path]
+    other, _ = replan(problem, "decoupled", seed=1, time_limit=60.0)
+    assert other.status == "solved"
+    assert [q.tolist() for q, _, _ in other.path] != [q.tolist() for q, _, _ in first.path]
+
+
+@pytest.mark.parametrize("planner", ["decoupled", "optimal"])
+def test_simplify_ompl_keeps_the_plan_valid_and_no_longer(tabletop_run, planner):
+    from tmpc.runtime.solve import replan
+    problem, _ = tabletop_run
+    over = {"first_solution": True}
+    plain, _ = replan(problem, planner, seed=2, time_limit=60.0, overrides=over)
+    simple, _ = replan(problem, planner, seed=2, time_limit=60.0,
+                       overrides=dict(over, simplify="ompl"))
+    assert simple.status == "solved"
+    _, report = _validate(problem, simple, planner)
+    assert report.valid, report.text()
+    s = simple.stats["simplify"]
+    assert s["motions"] == len([a for _, _, a in simple.path if a is not None]) + 1
+    assert s["length_after"] <= s["length_before"] + 1e-9
+    # the same actions at the same configurations: only the motions between them change
+    acts = [(a.name, q.tolist()) for q, _, a in simple.path if a is not None]
+    if planner == "optimal":          # no internal shortcut to skip: the same plan underneath
+        assert acts == [(a.name, q.tolist()) for q, _, a in plain.path if a is not None]
+
+
+def test_simplify_ompl_falls_back_where_tmpc_rejects(tabletop_run, monkeypatch):
+    """A simplified motion tmpc's checker rejects is replaced by the original."""
+    from tmpc.runtime.planners.decoupled import MotionSpace, simplify_path
+    problem, result = tabletop_run
+    monkeypatch.setattr(MotionSpace, "path_valid", lambda self, Q, mode=None: False)
+    path, stats = simplify_path(problem, result.path, seed=0)
+    assert stats["simplified"] == 0
+    assert [q.tolist() for q, _, _ in path] == [q.tolist() for q, _, _ in result.path]
+
+
+def test_unknown_simplifier_and_motion_planner_are_diagnosed(tabletop_run):
+    from tmpc.runtime.planners import make_planner
+    problem, _ = tabletop_run
+    with pytest.raises(InputError) as info:
+        make_planner("optimal", problem, 0, {"simplify": "omp"})
+    assert info.value.diagnostics[0].code == "E855"
+    with pytest.raises(InputError) as info:
+        make_planner("decoupled", problem, 0, {"motion_planner": "ompl:RRTconect"})
+    d = info.value.diagnostics[0]
+    assert d.code == "E850" and "`ompl:RRTConnect`" in d.hint
+
+
+def test_every_listed_ompl_planner_exists_and_is_in_run_help():
+    from ompl import geometric as og
+    from tmpc.runtime.cli.main import build_parser
+    assert "tmpc" in MOTION_PLANNERS and "decoupled" in PLANNERS
+    for name in MOTION_PLANNERS:
+        if name != "tmpc":
+            assert hasattr(og, name.split(":")[1]), name
+    assert check_motion_planner("ompl:RRTConnect") == "ompl:RRTConnect"
+    helps = build_parser()._subparsers._group_actions[0].choices["run"].format_help()
+    assert "ompl:BITstar" in " ".join(helps.split())
+
+
+@pytest.mark.parametrize("planner", ["ompl:RRTConnect", "ompl:KPIECE1", "tmpc"])
+def test_one_motion_each_planner(tabletop_run, planner):
+    """Random start and goal states whose straight motion collides: the planned path joins
+    them exactly and every segment is collision-free by tmpc's checker."""
+    from tmpc.runtime.planners import plan_motion
+    problem, _ = tabletop_run
+    mode = problem.initial
+    rng = np.random.default_rng(11)
+    Q = problem.uniform(rng, 400)
+    Q = Q[problem.valid_batch(mode, Q)]
+    ok = problem.motions_valid(mode, Q[:-1:2], Q[1::2], 0.05)
+    i = int(np.nonzero(~ok)[0][0])
+    q0, q1 = Q[2 * i], Q[2 * i + 1]
+    res = plan_motion(problem, mode, q0, q1, planner, time_limit=20.0, seed=4)
+    assert res.path is not None, res.status
+    assert np.array_equal(res.path[0], q0) and np.array_equal(res.path[-1], q1)
+    assert len(res.path) >= 3                       # the straight motion collides
+    assert problem.motions_valid(mode, res.path[:-1], res.path[1:], 0.05, ends=True).all()
+    again = plan_motion(problem, mode, q0, q1, planner, time_limit=20.0, seed=4)
+    assert np.array_equal(again.path, res.path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("planner", ["ompl:RRTConnect", "tmpc"])
+def test_tmpc_motion_cli_on_tabletop(tabletop_run, tmp_path, planner):
+    problem, _ = tabletop_run
+    r = run_tmpc("motion", TABLETOP, "--from", "start", "--to", "random", "--seed", "5",
+                 "--planner", planner, "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    path = np.array(out["path"])
+    assert out["planner"] == planner and out["states"] == len(path)
+    assert np.allclose(path[0], problem.q0)
+    assert problem.motions_valid(problem.initial, path[:-1], path[1:], 0.05, ends=True).all()
+    assert out["length"] > 0 and out["seconds"] >= 0
+
+
+@pytest.mark.slow
+def test_tmpc_motion_cli_errors(tabletop_run, tmp_path):
+    problem, _ = tabletop_run
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    hit = tmp_path / "hit.json"      # the arm folded into the table
+    hit.write_text(json.dumps({"joints": {"panda_joint2": 1.7, "panda_joint4": -0.1}}))
+    cases = [(["--from", "start", "--to", "random", "--planner", "ompl:rrtconnect"], "E850"),
+             (["--from", "strat", "--to", "random"], "E852"),
+             (["--from", str(bad), "--to", "start"], "E580"),
+             (["--from", "start", "--to", str(hit)], "E853")]
+    for args, code in cases:
+        r = run_tmpc("motion", TABLETOP, *args)
+        assert r.returncode == 1 and code in r.stderr, (args, r.stderr)
+        assert "Traceback" not in r.stderr
+    # a goal whose straight motion collides, with no time to plan around: exit 3, the reason
+    seed = next(s for s in range(100) if not _straight_ok(problem, s))
+    r = run_tmpc("motion", TABLETOP, "--from", "start", "--to", "random", "--seed", seed,
+                 "--planner", "tmpc", "--time-limit", "1e-9")
+    assert r.returncode == 3 and "no motion found" in r.stderr, r.stderr
+
+
+def _straight_ok(problem, seed: int) -> bool:
+    """Is the straight motion from the start to `tmpc motion --to random --seed S`'s goal
+    (the first valid of 64 uniform draws) collision-free?"""
+    Q = problem.uniform(np.random.default_rng(seed), 64)
+    q1 = Q[np.nonzero(problem.valid_batch(problem.initial, Q))[0][0]]
+    return bool(problem.motions_valid(problem.initial, problem.q0[None], q1[None], 0.05,
+                                      ends=True)[0])
+
+
+def test_check_help_and_the_language_server_import_no_ompl():
+    code = """
+import sys, io, contextlib
+from tmpc.runtime.cli.main import build_parser, main
+parser = build_parser()
+for name in ("run", "motion", "bench"):
+    with contextlib.redirect_stdout(io.StringIO()):
+        try:
+            parser.parse_args([name, "--help"])
+        except SystemExit:
+            pass
+with contextlib.redirect_stdout(io.StringIO()):
+    main(["check", "examples/tabletop/domain.pddl", "examples/tabletop/problem.pddl"])
+import tmpc.lang.lsp
+assert "ompl" not in sys.modules, "ompl imported"
+import tmpc.runtime.planners.decoupled as d
+assert "ompl" not in sys.modules and d.MOTION_PLANNERS
+print("ok")
+"""
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-2000:]
