@@ -152,3 +152,32 @@ def test_the_suite_modules_check_with_the_unchanged_files(problem, module):
     report = check_paths([domain, pb], semantics={str(pb.resolve()): SEMANTICS / f"{module}.tmpc"})
     assert report.ok, [(d.code, d.message) for d in report.diagnostics if d.is_error]
     assert len(report.programs) == 1
+
+
+def test_mutated_semantics_modules_give_diagnostics_never_a_traceback(tmp_path):
+    """Fuzz: a semantics module cut, with tokens dropped, swapped or duplicated, is read and
+    applied with diagnostics only."""
+    import random
+    rng = random.Random(7)
+    tokens = MODULE.replace("(", " ( ").replace(")", " ) ").split()
+    for trial in range(60):
+        t = list(tokens)
+        for _ in range(rng.randint(1, 4)):
+            i = rng.randrange(len(t))
+            op = rng.choice(("drop", "dup", "swap", "cut", "junk"))
+            if op == "drop":
+                del t[i]
+            elif op == "dup":
+                t.insert(i, t[i])
+            elif op == "swap":
+                j = rng.randrange(len(t))
+                t[i], t[j] = t[j], t[i]
+            elif op == "cut":
+                t = t[:i]
+            else:
+                t.insert(i, rng.choice(("?hand", ":carries", "(:hand)", ":kinematic", "?x",
+                                        "(link ?hand)", "(:domain)")))
+            if not t:
+                t = ["("]
+        report = _check(tmp_path, " ".join(t))
+        assert all(d.code for d in report.diagnostics)
