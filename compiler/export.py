@@ -36,7 +36,7 @@ from tmpc.compiler.smt import smtlib_templates
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.fileio import atomic_write_bytes
 from tmpc.lang.inputs import load_world
-from tmpc.lang.world import dispatch_shape, find_file, find_srdf
+from tmpc.lang.world import dispatch_shape, extras_json, find_file, find_srdf
 
 
 @dataclass
@@ -121,16 +121,7 @@ def normalized_scene(members: _Members, scene, allowed: tuple) -> dict:
             obj["support"] = {"lower": list(o.support.lower), "upper": list(o.support.upper)}
         if o.parent is not None:
             obj["parent"] = o.parent
-        if o.grasps:
-            obj["grasps"] = [{"kind": g.kind, "template": {
-                "translation": list(g.template.translation),
-                "rotation": list(g.template.rotation)},
-                "axis": list(g.axis) if g.axis is not None else None} for g in o.grasps]
-        if o.stable_poses:
-            obj["stable_poses"] = [{"rotation": list(s.template), "axis": list(s.axis),
-                                    "distance": s.distance} for s in o.stable_poses]
-        if o.attachments:
-            obj["attachments"] = list(o.attachments)
+        obj.update(extras_json(o))
         objects.append(obj)
     # Legacy blocklists name links some URDFs lack (their planners skipped those); the native
     # scene format is strict, so only pairs naming real things are carried over.

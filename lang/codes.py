@@ -253,11 +253,11 @@ _TABLE = (
                         "`tmpc-scene/1`)"),
     Code("E520", ERROR, "a position (object, robot base, workspace bound) more than 10 km from "
                         "the origin: a typo or a unit mix-up"),
-    Code("E521", ERROR, "a planet `<attachments>` name that names no object of the scene (with a "
-                        '"did you mean")'),
-    Code("E522", ERROR, "a planet object attached to itself, to two objects, or attachments "
-                        "forming a loop"),
-    Code("E523", ERROR, "a planet grasp or stable-pose axis that is the zero vector"),
+    Code("E521", ERROR, "an attachment (planet `<attachments>`, native `attachments`) naming no "
+                        'object of the scene (with a "did you mean")'),
+    Code("E522", ERROR, "an object attached to itself, to two objects, or attachments forming a "
+                        "loop"),
+    Code("E523", ERROR, "a grasp or stable-pose axis that is the zero vector"),
     Code("E524", ERROR, "a run manifest's `[names]` entry naming no object of the scene (with a "
                         '"did you mean")'),
     Code("E525", ERROR, "a run manifest's `[names]` giving one scene object two PDDL names, or a "

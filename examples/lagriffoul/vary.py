@@ -318,7 +318,10 @@ def varied_toml(inst: Instance, scene_out: Path, mesh_dir: Path | None, seed: in
         head = re.match(r"^\s*\[\s*([^\]]+?)\s*\]", line)
         if head:
             if table == "problem" and mesh_dir is not None and "mesh_dir" not in seen:
-                lines.append(f"mesh_dir = {toml_string(str(mesh_dir))}")
+                at = len(lines)
+                while at > 0 and not lines[at - 1].strip():
+                    at -= 1                       # after the table's last key, not its gap
+                lines.insert(at, f"mesh_dir = {toml_string(str(mesh_dir))}")
                 seen.add("mesh_dir")
             table = head.group(1)
         m = key_re.match(line)

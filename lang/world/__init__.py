@@ -12,6 +12,7 @@ from tmpc.lang.world.loaders import load_scene as load_scene
 from tmpc.lang.world.robot import KinematicTree as KinematicTree
 from tmpc.lang.world.robot import example_robot_data_dir as example_robot_data_dir
 from tmpc.lang.world.robot import find_file as find_file
+from tmpc.lang.world.native import extras_json as extras_json
 from tmpc.lang.world.robot import find_srdf as find_srdf
 from tmpc.lang.world.robot import hand_chain as hand_chain
 from tmpc.lang.world.robot import import_yourdfpy as import_yourdfpy

@@ -34,7 +34,9 @@ from tmpc.lang.world.scene import (
     SceneObject,
     Shape,
     StablePose,
+    Vec3,
 )
+from tmpc.lang.world.suite import Attached, check_attachments
 
 NATIVE_SCENE_FORMAT = "tmpc-scene/1"
 
@@ -58,11 +60,13 @@ def _native_scene(r: JsonReader, opts: SceneOptions) -> Scene:
         with r.part():
             robot, urdf = _native_robot(r, "/robot", top["robot"])
     entries: list[Entry] = []
+    attached: list[Attached] = []
     with r.part():
         for i, o in enumerate(r.array("/objects", top.get("objects", []))):
             with r.part():
-                entries.append(_native_object(r, f"/objects/{i}", o, opts))
+                entries.append(_native_object(r, f"/objects/{i}", o, opts, attached))
     check_names(r, entries, robot, urdf)
+    check_attachments(r, attached, {e.obj.name.lower(): e.obj.name for e in entries})
     pairs: tuple[tuple[str, str], ...] = ()
     if "allowed_collisions" in top:
         with r.part():
@@ -110,7 +114,8 @@ _SHAPE_KEYS = {"box": (("half_extents",), ()), "sphere": (("radius",), ()),
                "cylinder": (("radius", "length"), ()), "mesh": (("file",), ("scale", "convex"))}
 
 
-def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Entry:
+def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions,
+                   attached: list[Attached]) -> Entry:
     v = r.obj(ptr, value, ("name", "pose"), ("movable", "shape", "support", "parent", "grasps",
                                              "stable_poses", "attachments"))
     name = r.pddl_name(f"{ptr}/name", v["name"])
@@ -131,55 +136,64 @@ def _native_object(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> E
                        [Related(r.span(f"{ptr}/support/lower/{i}"), "lower bound")])
         support = Box((lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2]))
     parent = r.pddl_name(f"{ptr}/parent", v["parent"]) if v.get("parent") is not None else None
+    grasps = tuple(_native_grasp(r, f"{ptr}/grasps/{i}", g)
+                   for i, g in enumerate(r.array(f"{ptr}/grasps", v.get("grasps", []))))
+    sops = tuple(_native_stable_pose(r, f"{ptr}/stable_poses/{i}", sp)
+                 for i, sp in enumerate(r.array(f"{ptr}/stable_poses",
+                                                v.get("stable_poses", []))))
+    children = [(r.pddl_name(f"{ptr}/attachments/{i}", c), r.span(f"{ptr}/attachments/{i}"))
+                for i, c in enumerate(r.array(f"{ptr}/attachments", v.get("attachments", [])))]
+    if children:
+        attached.append(Attached(name, r.span(f"{ptr}/name"), children))
     obj = SceneObject(name, pose, movable, shape, support, parent, r.origin(r.span(ptr), ptr),
-                      grasps=_native_grasps(r, f"{ptr}/grasps", v.get("grasps", [])),
-                      stable_poses=_native_stable(r, f"{ptr}/stable_poses",
-                                                  v.get("stable_poses", [])),
-                      attachments=tuple(r.pddl_name(f"{ptr}/attachments/{i}", a) for i, a in
-                                        enumerate(r.array(f"{ptr}/attachments",
-                                                          v.get("attachments", []),
-                                                          "an array of object names"))))
+                      grasps, sops, tuple(c for c, _ in children))
     return Entry(obj, r.span(f"{ptr}/name"), r.span(f"{ptr}/parent") if parent else None)
 
 
-def _unit(r: JsonReader, ptr: str, value: Any, what: str) -> tuple[float, float, float]:
-    v = r.numbers(ptr, value, 3, what)
-    n = sum(x * x for x in v) ** 0.5
+def _axis(r: JsonReader, ptr: str, value: Any) -> Vec3:
+    a = r.numbers(ptr, value, 3, "an axis")
+    n = sum(c * c for c in a) ** 0.5
     if n < 1e-9:
-        r.fail("E507", r.span(ptr), f"{ptr}: {what} is the zero vector", "give a direction")
-    return (v[0] / n, v[1] / n, v[2] / n)
+        r.fail("E523", r.span(ptr), f"{ptr}: the axis is the zero vector",
+               "an axis is a direction, e.g. [0, 0, 1] (z)")
+    return (a[0] / n, a[1] / n, a[2] / n)
 
 
-def _native_grasps(r: JsonReader, ptr: str, value: Any) -> tuple[GraspSet, ...]:
-    """``[{"kind": "side", "template": {pose}, "axis": [x, y, z] | null}, ...]`` (docs/world.md)."""
-    out = []
-    for i, g in enumerate(r.array(ptr, value, "an array of grasp sets")):
-        p = f"{ptr}/{i}"
-        v = r.obj(p, g, ("template",), ("kind", "axis"))
-        axis = _unit(r, f"{p}/axis", v["axis"], "a grasp set's axis") \
-            if v.get("axis") is not None else None
-        out.append(GraspSet(r.string(f"{p}/kind", v.get("kind", "")),
-                            r.pose(f"{p}/template", v["template"], False), axis,
-                            r.origin(r.span(p), p)))
-    return tuple(out)
+def _native_grasp(r: JsonReader, ptr: str, value: Any) -> GraspSet:
+    """``{"kind": "side", "template": POSE, "axis": [x, y, z] | null}``: a grasp set
+    (:class:`~tmpc.lang.world.scene.GraspSet`; without an axis, one discrete frame)."""
+    v = r.obj(ptr, value, ("template",), ("kind", "axis"))
+    kind = r.string(f"{ptr}/kind", v["kind"], nonempty=False) if "kind" in v else ""
+    template = r.pose(f"{ptr}/template", v["template"], False)
+    axis = _axis(r, f"{ptr}/axis", v["axis"]) if v.get("axis") is not None else None
+    return GraspSet(kind, template, axis, r.origin(r.span(ptr), ptr))
 
 
-def _native_stable(r: JsonReader, ptr: str, value: Any) -> tuple[StablePose, ...]:
-    """``[{"rotation": [x, y, z, w], "axis": [x, y, z], "distance": d}, ...]``."""
-    out = []
-    for i, s in enumerate(r.array(ptr, value, "an array of stable poses")):
-        p = f"{ptr}/{i}"
-        v = r.obj(p, s, ("rotation", "axis"), ("distance",))
-        q = r.numbers(f"{p}/rotation", v["rotation"], 4, "a quaternion [x, y, z, w]")
-        n = sum(x * x for x in q) ** 0.5
-        if abs(n - 1) > 1e-3:
-            r.fail("E509", r.span(f"{p}/rotation"), f"{p}/rotation: not a unit quaternion "
-                   f"(norm {fmt_num(n)})", "give [x, y, z, w] of norm 1")
-        out.append(StablePose((q[0] / n, q[1] / n, q[2] / n, q[3] / n),
-                              _unit(r, f"{p}/axis", v["axis"], "a stable pose's axis"),
-                              r.number(f"{p}/distance", v.get("distance", 0.0)),
-                              r.origin(r.span(p), p)))
-    return tuple(out)
+def _native_stable_pose(r: JsonReader, ptr: str, value: Any) -> StablePose:
+    """``{"rotation": [x, y, z, w], "axis": [x, y, z], "distance": d}``
+    (:class:`~tmpc.lang.world.scene.StablePose`)."""
+    v = r.obj(ptr, value, ("rotation", "axis"), ("distance",))
+    rotation = r.quaternion(f"{ptr}/rotation", v["rotation"])
+    distance = r.number(f"{ptr}/distance", v["distance"]) if "distance" in v else 0.0
+    return StablePose(rotation, _axis(r, f"{ptr}/axis", v["axis"]), distance,
+                      r.origin(r.span(ptr), ptr))
+
+
+def extras_json(obj: SceneObject) -> dict[str, Any]:
+    """The native JSON keys of an object's grasp sets, stable poses and attachments (none when it
+    has none): what a normalized native scene needs to carry a planet scene's `<grasps>`,
+    `<sop>` and `<attachments>` over."""
+    out: dict[str, Any] = {}
+    if obj.grasps:
+        out["grasps"] = [{"kind": g.kind, "template": {
+            "translation": list(g.template.translation), "rotation": list(g.template.rotation)},
+            "axis": list(g.axis) if g.axis is not None else None} for g in obj.grasps]
+    if obj.stable_poses:
+        out["stable_poses"] = [{"rotation": list(sp.template), "axis": list(sp.axis),
+                                "distance": sp.distance} for sp in obj.stable_poses]
+    if obj.attachments:
+        out["attachments"] = list(obj.attachments)
+    return out
 
 
 def _native_shape(r: JsonReader, ptr: str, value: Any, opts: SceneOptions) -> Shape:

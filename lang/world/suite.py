@@ -15,7 +15,7 @@ from pathlib import Path
 from tmpc.lang.diagnostics import Related
 from tmpc.lang.source import Span
 from tmpc.lang.world.files import find_first, search_dirs
-from tmpc.lang.world.reader import ROTATION_TOLERANCE, did_you_mean, fmt_num, join_hints
+from tmpc.lang.world.reader import ROTATION_TOLERANCE, Reader, did_you_mean, fmt_num, join_hints
 from tmpc.lang.world.robot import example_robot_data_dir
 from tmpc.lang.world.rotations import orthonormality_error, quat_from_matrix
 from tmpc.lang.world.scene import Box, GraspSet, StablePose, Vec3
@@ -110,19 +110,20 @@ class Attached:
     children: list[tuple[str, Span]]
 
 
-def check_attachments(r: XmlReader, written: list[Attached], names: dict[str, str]) -> None:
+def check_attachments(r: Reader, written: list[Attached], names: dict[str, str]) -> None:
     """Each attached name is an object of the scene (E521), not the parent itself, attached to
-    one parent only, and the attachments form no loop (E522). ``names``: lower -> as written."""
+    one parent only, and the attachments form no loop (E522). ``names``: lower -> as written.
+    (Both the planet XML and the native JSON scene say attachments.)"""
     parent_of: dict[str, tuple[str, Span]] = {}
     for a in written:
         for child, span in a.children:
             key = child.lower()
             if key not in names:
-                r.record("E521", span, f"<obj> \"{a.parent}\" <attachments>: \"{child}\" is no "
+                r.record("E521", span, f"\"{a.parent}\"'s attachments: \"{child}\" is no "
                          "object of the scene", join_hints(did_you_mean(child, names.values()),
-                                                           "attachments name objects (<obj><name>)"))
+                                                           "attachments name objects"))
             elif key == a.parent.lower():
-                r.record("E522", span, f"<obj> \"{a.parent}\" is attached to itself")
+                r.record("E522", span, f"\"{a.parent}\" is attached to itself")
             elif key in parent_of and parent_of[key][0].lower() != a.parent.lower():
                 first, first_span = parent_of[key]
                 r.record("E522", span, f"\"{child}\" is attached to two objects: \"{first}\" and "

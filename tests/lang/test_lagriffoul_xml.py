@@ -222,3 +222,38 @@ def test_mutated_files_give_positioned_diagnostics(tmp_path):
                     if d.is_error:
                         assert d.span is not None, d.message
                         assert 0 <= d.span.start <= len(mutated) + 1
+
+
+def test_grasps_stable_poses_and_attachments_survive_the_native_format(tmp_path):
+    """A planet scene written as a native scene (what a compiled artifact carries) keeps its
+    grasp sets, stable poses and attachments: `extras_json` writes them, the native reader
+    reads them back."""
+    import json
+
+    from tmpc.lang.world.native import extras_json
+    s = load_scene(DATA / "problem5" / "kitchen.xml")
+    objects = []
+    for o in s.objects:
+        objects.append({"name": o.name, "movable": o.movable,
+                        "pose": {"translation": list(o.pose.translation),
+                                 "rotation": list(o.pose.rotation)},
+                        "shape": {"type": "mesh", "file": str(o.shape.mesh)},
+                        **({"support": {"lower": list(o.support.lower),
+                                        "upper": list(o.support.upper)}} if o.support else {}),
+                        **extras_json(o)})
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({"format": "tmpc-scene/1", "bounds": [list(b) for b in s.bounds],
+                                "objects": objects}))
+    back = load_scene(path)
+    for a, b in zip(s.objects, back.objects):
+        assert (a.grasps, a.stable_poses, a.attachments) == \
+            (b.grasps, b.stable_poses, b.attachments), a.name
+    assert back.object("shelf").attachments == ("cabbage1", "cabbage2", "radish_spot1",
+                                                "radish_spot2")
+    # the same checks as the XML's, at the JSON value
+    objects[0]["attachments"] = ["glas2"]
+    path.write_text(json.dumps({"format": "tmpc-scene/1", "bounds": [list(b) for b in s.bounds],
+                                "objects": objects}, indent=1))
+    diag, files = raises("E521", load_scene, path)
+    assert where(diag, files) == pos_of(path.read_text(), '"glas2"')
+    assert "did you mean `glass2`" in diag.hint
