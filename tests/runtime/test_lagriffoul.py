@@ -131,10 +131,10 @@ def test_grasped_by_matches_the_grasp_set_by_construction(worlds):
 @pytest.mark.parametrize("name", ["blocks-C", "hanoi-3", "clutter", "nonmono"])
 def test_smallest_instances_plan_and_validate(tmp_path, name):
     out = tmp_path / "plan.json"
-    run = subprocess.run([sys.executable, "-m", "tmpc", "run", str(SUITE / name / "run.toml"),
+    run = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(SUITE / name / "run.toml"),
                           "-o", str(out)], capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stdout + run.stderr
-    val = subprocess.run([sys.executable, "-m", "tmpc", "validate", "--json",
+    val = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "validate", "--json",
                           str(SUITE / name / "run.toml"), str(out)],
                          capture_output=True, text=True, timeout=600)
     report = json.loads(val.stdout)
