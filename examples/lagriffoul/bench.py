@@ -49,9 +49,9 @@ def main(argv: list[str]) -> int:
                 subprocess.run([sys.executable, str(HERE / "vary.py"), str(HERE / inst),
                                 "--seed", str(seed), "-o", str(dest)], check=True)
             inputs.append(str(dest / "run.toml"))
-    cmd = [sys.executable, "-m", "tmpc.runtime.cli", "bench", *inputs, "--planners", args.planners, "--seeds", "1",
-           "--time-limit", str(args.time_limit), "--validate", "--workers", str(args.workers),
-           "-o", str(out)]
+    cmd = [sys.executable, "-m", "tmpc.runtime.cli", "bench", *inputs,
+           "--planners", args.planners, "--seeds", "1", "--time-limit", str(args.time_limit),
+           "--validate", "--workers", str(args.workers), "-o", str(out)]
     if out.is_file() and out.stat().st_size:
         cmd.append("--resume")
     code = subprocess.run(cmd).returncode
