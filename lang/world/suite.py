@@ -208,7 +208,8 @@ def robot_on_floor(r: XmlReader, robot, objects, span: Span | None):
     x, y, z = robot.base_pose.translation
     if abs(z - floor) <= FLOOR_SLACK:
         return robot
-    r.warn("W519", span, f"the robot's base is {abs(z - floor):.2f} m {'below' if z < floor else 'above'}"
+    where = "below" if z < floor else "above"
+    r.warn("W519", span, f"the robot's base is {abs(z - floor):.2f} m {where}"
            f" the scene's floor (z {floor:g}, the lowest fixed object's origin); it stands on the "
            "floor", "the suite's base heights disagree with its scenes; give a <basepose> z on "
            "the floor to silence this")
