@@ -109,14 +109,13 @@ class _Overlay:
         self.hand = sem.hands[0] if sem.hands else None
         #: several hands: ``?hand`` is a parameter of the actions that use it
         self.multi = len(sem.hands) > 1
-        #: predicate key -> True when every atom of it gains the hand as first argument
+        #: predicates every atom of which gains the hand as its first argument
         self.with_hand: set[str] = set()
-        #: predicate key -> (meaning predicate name, parameters)
+        #: predicate key -> its hidden meaning predicate (``P~means``)
         self.meanings: dict[str, A.PredicateDecl] = {}
         self.decls = {p.name.key: p for p in domain.predicates}
-        changed = {key for a in domain.actions for _, at in _atoms(a.effect)
-                   for key in (at.pred.key,)}
-        self.changed = changed
+        #: predicates some effect of the domain changes
+        self.changed = {at.pred.key for a in domain.actions for _, at in _atoms(a.effect)}
 
     # ---- predicates ------------------------------------------------------------------------
     def predicates(self) -> list[A.PredicateDecl]:
