@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tmpc.compiler.kernels.tables import scene_vectors
 from tmpc.compiler.robot import RobotModel, homogeneous
 from tmpc.compiler.rotations import quat_from_matrix, quat_matrix, rpy_of
+from tmpc.compiler.scene_data import scene_vectors
 from tmpc.lang import ast as A
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.symbols import NUMBER_CONSTANTS

@@ -27,6 +27,8 @@ See docs/language.md, "Geometric goals".
 
 from __future__ import annotations
 
+import re
+
 from dataclasses import dataclass, replace
 
 from tmpc.lang import ast as A
@@ -37,6 +39,8 @@ SYMBOL = "@achieved"
 #: separator of a variant action's name: ``place~on~0`` is ``place`` achieving ``on`` with the
 #: released object in slot 0
 VARIANT = "~"
+#: a variant's name: its action's, the predicate it achieves and the slot
+_VARIANT_NAME = re.compile(r"(.+)~[^~]+~(\d+)")
 
 
 def is_symbol(predicate: str) -> bool:
@@ -46,15 +50,11 @@ def is_symbol(predicate: str) -> bool:
 
 def shown_as(schema: str, args: tuple[str, ...], program: CheckedProgram) -> tuple[str, tuple]:
     """A (possibly variant) action as plans name it: its original schema and arguments."""
-    actions = program.scope.actions
-    if VARIANT not in schema or schema.lower() in actions:
-        return schema, args          # a declared name (a semantics module's `move~grasp`)
-    parts = schema.split(VARIANT)
-    for k in range(len(parts) - 1, 0, -1):
-        base = actions.get(VARIANT.join(parts[:k]).lower())
-        if base is not None:
-            return base.name.text, args[:len(base.params)]
-    return schema, args
+    m = _VARIANT_NAME.fullmatch(schema)
+    base = program.scope.actions.get(m.group(1).lower()) if m else None
+    if base is None:
+        return schema, args     # not a variant (a semantics module's `move~grasp` stays itself)
+    return base.name.text, args[:len(base.params)]
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ import numpy as np
 
 from tmpc.compiler.meshes import mesh_arrays
 from tmpc.compiler.robot import RobotModel
+from tmpc.compiler.scene_data import SCENE_VECTORS, scene_vectors
 from tmpc.lang.world import Scene, dispatch_shape
 
 
@@ -57,43 +58,6 @@ _EXTENT = {
     "cylinder": lambda shape: (shape.radius, shape.radius, shape.length / 2),
     "mesh": _mesh_extent,
 }
-
-
-#: the static per-object vectors the DSL reads (``grasp-point`` ...): IR op names
-SCENE_VECTORS = ("grasp_point", "grasp_axis", "grasp_hand_axis", "stable_up")
-
-
-def _quat_matrix(q) -> np.ndarray:
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
-def scene_vectors(obj) -> dict[str, np.ndarray]:
-    """An object's static vectors from the suite's XML data (object frame; absent: NaN):
-    ``grasp_point`` the first grasp set's template origin, ``grasp_axis`` its rotation axis (a
-    discrete grasp: the template's own z), ``grasp_hand_axis`` that axis seen from the hand
-    (the template's rotation transposed times the axis: a hand pose in the set sees the axis
-    the same way), ``stable_up`` the object-frame direction its first stable pose stands along
-    the pose's axis (the template transposed times the axis)."""
-    nan = np.full(3, np.nan)
-    out = {k: nan for k in SCENE_VECTORS}
-    grasps = getattr(obj, "grasps", ())
-    if grasps:
-        g = grasps[0]
-        R = _quat_matrix(g.template.rotation)
-        axis = np.asarray(g.axis if g.axis is not None else R[:, 2], float)
-        axis = axis / (np.linalg.norm(axis) or 1.0)
-        out["grasp_point"] = np.asarray(g.template.translation, float)
-        out["grasp_axis"] = axis
-        out["grasp_hand_axis"] = R.T @ axis
-    stable = getattr(obj, "stable_poses", ())
-    if stable:
-        s = stable[0]
-        a = np.asarray(s.axis, float)
-        out["stable_up"] = _quat_matrix(s.template).T @ (a / (np.linalg.norm(a) or 1.0))
-    return out
 
 
 def _extent(shape) -> tuple[float, float, float]:

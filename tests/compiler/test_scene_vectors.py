@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from tmpc.compiler.kernels.tables import scene_vectors
+from tmpc.compiler.scene_data import scene_vectors
 from tmpc.lang.world import LoadReport, load_scene
 
 
