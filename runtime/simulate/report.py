@@ -81,6 +81,8 @@ class SimReport:
             lines.append(f"  contact {c['a']} - {c['b']} at {c['time']:.2f} s, "
                          f"{1000 * c['depth']:.1f} mm deep")
         if self.goal_holds is not None:
-            lines.append("  goal holds after settling" if self.goal_holds else
-                         "  goal no longer holds: " + "; ".join(self.goal_failures))
+            lines.append(("  goal holds after settling" + (
+                " (within 5 mm: " + "; ".join(self.goal_failures) + ")"
+                if self.goal_failures else "")) if self.goal_holds else
+                "  goal no longer holds: " + "; ".join(self.goal_failures))
         return "\n".join(lines)
