@@ -35,6 +35,16 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
     """Replay ``doc`` (a timed ``tmpc-plan/1`` object) in ``world`` (opened with its program
     for the goal check); ``trace``: keep samples of the motion in the report."""
     import mujoco
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: None)    # the report says it, no MUJOCO_LOG.TXT
+    try:
+        return _simulate(world, doc, settle, trace)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _simulate(world, doc: dict, settle: float, trace: bool) -> SimReport:
+    import mujoco
     plan = parse_plan(SourceFile("<plan>", json.dumps(doc)))
     timing = doc["timing"]
     names = list(timing["joint_names"])
@@ -138,6 +148,7 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
         for g in geoms[o]:
             model.geom_contype[g], model.geom_conaffinity[g] = SCENE_BITS
     report.wall_seconds = time.perf_counter() - wall
+    report.unstable = int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
     report.sim_seconds = round(data.time, 4)
     report.tracking = {n: float(e) for n, e in zip(names, tracking)}
     settled = {o: _pose(data, b) for o, b in objects.items()}
