@@ -30,6 +30,7 @@ def physics_record(world, doc: dict) -> dict:
             "drift": {k: round(v, 5) for k, v in report.drift.items()},
             "max_tilt": round(max(report.tilt.values(), default=0.0), 5),
             "max_displaced": round(max(report.displaced.values(), default=0.0), 5),
+            "unstable": report.unstable,
             "max_tracking": round(report.max_tracking, 5), "contacts": len(report.contacts),
             "sim_seconds": report.sim_seconds, "wall_seconds": round(report.wall_seconds, 4),
             "real_time_factor": round(report.real_time_factor, 2), "motions": len(ms),

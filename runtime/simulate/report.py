@@ -29,6 +29,9 @@ class SimReport:
     displaced: dict[str, float] = field(default_factory=dict)
     #: the largest |reference - actual| of each timed joint during the plan (rad or m)
     tracking: dict[str, float] = field(default_factory=dict)
+    #: times MuJoCo found the simulation unstable (NaN or huge accelerations; it then resets
+    #: the state): the replay says nothing about the plan, and fails
+    unstable: int = 0
     #: samples of the motion: (t, {joint: value}, {object: 4x4 pose}), for ``--html``
     trace: list = field(default_factory=list, repr=False)
 
@@ -45,7 +48,7 @@ class SimReport:
         return max(self.tracking.values(), default=0.0)
 
     def ok(self) -> bool:
-        return (all(d <= DRIFT_LIMIT for d in self.drift.values())
+        return (not self.unstable and all(d <= DRIFT_LIMIT for d in self.drift.values())
                 and all(d <= DRIFT_LIMIT for d in self.displaced.values())
                 and all(a <= TILT_LIMIT for a in self.tilt.values())
                 and self.goal_holds is not False)
@@ -56,7 +59,7 @@ class SimReport:
                 "goal_failures": self.goal_failures, "sim_seconds": self.sim_seconds,
                 "wall_seconds": round(self.wall_seconds, 4),
                 "real_time_factor": round(self.real_time_factor, 2),
-                "displaced": self.displaced,
+                "displaced": self.displaced, "unstable": self.unstable,
                 "tracking_error": {k: round(v, 6) for k, v in self.tracking.items()},
                 "max_tracking_error": round(self.max_tracking, 6),
                 "settled_poses": self.settled_poses}
@@ -65,6 +68,8 @@ class SimReport:
         lines = [f"{'ok' if self.ok() else 'FAILED'}: {len(self.drift)} released objects "
                  f"settled for the plan's {self.sim_seconds:.2f} s simulated in "
                  f"{self.wall_seconds:.2f} s ({self.real_time_factor:.1f}x real time)"]
+        if self.unstable:
+            lines.append(f"  the simulation was unstable ({self.unstable} times: MuJoCo reset it)")
         for name, d in sorted(self.drift.items()):
             flag = ("  (> 1 cm)" if d > DRIFT_LIMIT else "") + (
                 "  (tipped: > 5 deg)" if self.tilt[name] > TILT_LIMIT else "")
@@ -81,6 +86,8 @@ class SimReport:
             lines.append(f"  contact {c['a']} - {c['b']} at {c['time']:.2f} s, "
                          f"{1000 * c['depth']:.1f} mm deep")
         if self.goal_holds is not None:
-            lines.append("  goal holds after settling" if self.goal_holds else
-                         "  goal no longer holds: " + "; ".join(self.goal_failures))
+            lines.append(("  goal holds after settling" + (
+                " (within 5 mm: " + "; ".join(self.goal_failures) + ")"
+                if self.goal_failures else "")) if self.goal_holds else
+                "  goal no longer holds: " + "; ".join(self.goal_failures))
         return "\n".join(lines)

@@ -6,6 +6,7 @@ the goal holds in the settled world (docs/physics.md)."""
 from __future__ import annotations
 
 import json
+import re
 import time
 
 import numpy as np
@@ -22,6 +23,8 @@ from tmpc.runtime.validate import quat_from_matrix, validate_plan
 CONTACT_DEPTH = 0.002
 #: a released object touches the robot again once no gripper geom is within this (m)
 LET_GO = 0.001
+#: a goal atom's distance in the settled world up to this still holds (m or rad)
+GOAL_SLACK = 0.005
 #: s between the samples of the motion kept for ``--html``
 TRACE_DT = 0.04
 
@@ -31,6 +34,16 @@ __all__ = ["simulate", "DRIFT_LIMIT", "CONTACT_DEPTH"]
 def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimReport:
     """Replay ``doc`` (a timed ``tmpc-plan/1`` object) in ``world`` (opened with its program
     for the goal check); ``trace``: keep samples of the motion in the report."""
+    import mujoco
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda message: None)    # the report says it, no MUJOCO_LOG.TXT
+    try:
+        return _simulate(world, doc, settle, trace)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _simulate(world, doc: dict, settle: float, trace: bool) -> SimReport:
     import mujoco
     plan = parse_plan(SourceFile("<plan>", json.dumps(doc)))
     timing = doc["timing"]
@@ -135,6 +148,7 @@ def simulate(world, doc: dict, settle: float = 1.0, trace: bool = False) -> SimR
         for g in geoms[o]:
             model.geom_contype[g], model.geom_conaffinity[g] = SCENE_BITS
     report.wall_seconds = time.perf_counter() - wall
+    report.unstable = int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number)
     report.sim_seconds = round(data.time, 4)
     report.tracking = {n: float(e) for n, e in zip(names, tracking)}
     settled = {o: _pose(data, b) for o, b in objects.items()}
@@ -287,4 +301,15 @@ def _goal(world, doc, settled) -> tuple[bool | None, list[str]]:
             "translation": T[:3, 3].tolist(), "rotation": list(quat_from_matrix(T[:3, :3]))}
     report = validate_plan(world, parse_plan(SourceFile("<settled>", json.dumps(changed))))
     fails = [v.text() for v in report.violations if v.kind == "goal"]
-    return not fails, fails
+    return not [f for f in fails if not _within_slack(f)], fails
+
+
+def _within_slack(failure: str) -> bool:
+    """A geometric goal atom missed by at most :data:`GOAL_SLACK` (its distance, which the
+    validator's message gives) after settling still counts: an object let go at the edge of
+    a predicate's band settles a few millimetres past it."""
+    m = re.search(r"distance ([0-9.eE+-]+)", failure)
+    try:
+        return m is not None and float(m.group(1)) <= GOAL_SLACK
+    except ValueError:
+        return False
