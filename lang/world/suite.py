@@ -220,22 +220,26 @@ def robot_on_floor(r: XmlReader, robot, objects, span: Span | None):
 SUPPORT_FLOAT = 0.03
 
 
-def _obj_top(path) -> float | None:
-    """The highest vertex z of an OBJ mesh (None: not an OBJ file, unreadable, no vertices)."""
+def _obj_vertices(path) -> list[tuple[float, float, float]]:
+    """The vertices of an OBJ mesh (none: not an OBJ file, unreadable, or malformed)."""
     if path is None or Path(path).suffix.lower() != ".obj":
-        return None
-    top = None
+        return []
+    out = []
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
             for line in f:
-                if line.startswith("v "):
-                    parts = line.split()
-                    if len(parts) >= 4:
-                        z = float(parts[3])
-                        top = z if top is None or z > top else top
+                parts = line.split()
+                if len(parts) >= 4 and parts[0] == "v":
+                    out.append((float(parts[1]), float(parts[2]), float(parts[3])))
     except (OSError, ValueError):
-        return None
-    return top
+        return []
+    return out
+
+
+def _obj_top(path) -> float | None:
+    """The highest vertex z of an OBJ mesh (None: no vertices)."""
+    v = _obj_vertices(path)
+    return max(p[2] for p in v) if v else None
 
 
 def support_on_mesh(r: XmlReader, box: Box, mesh, span: Span | None, name: str) -> Box:
@@ -253,23 +257,11 @@ def support_on_mesh(r: XmlReader, box: Box, mesh, span: Span | None, name: str) 
 
 
 def _obj_radius(path) -> float:
-    """Half the diagonal of an OBJ mesh's footprint (xy bounds); 0 when unreadable."""
-    if path is None or Path(path).suffix.lower() != ".obj":
+    """Half the diagonal of an OBJ mesh's footprint (xy bounds); 0 without vertices."""
+    v = _obj_vertices(path)
+    if not v:
         return 0.0
-    xs: list[float] = []
-    ys: list[float] = []
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            for line in f:
-                if line.startswith("v "):
-                    parts = line.split()
-                    if len(parts) >= 4:
-                        xs.append(float(parts[1]))
-                        ys.append(float(parts[2]))
-    except (OSError, ValueError):
-        return 0.0
-    if not xs:
-        return 0.0
+    xs, ys = [p[0] for p in v], [p[1] for p in v]
     return math.hypot(max(xs) - min(xs), max(ys) - min(ys)) / 2
 
 
