@@ -190,7 +190,10 @@ def _find_domain_for(problem: A.Problem, ws: Workspace) -> A.Domain | None:
 def build_programs(ws: Workspace, parsed: list[ParsedFile],
                    diags: list[Diagnostic]) -> list[Program]:
     """Pair every problem with its domain; lone domains become programs of their own."""
-    domains = [d for p in parsed for d in p.definitions if isinstance(d, A.Domain)]
+    # a semantics module is applied to the domain of a run configuration that names it
+    # (:func:`_with_semantics`); alone it is read for its syntax only
+    domains = [d for p in parsed for d in p.definitions
+               if isinstance(d, A.Domain) and d.form != "semantics"]
     problems = [d for p in parsed for d in p.definitions if isinstance(d, A.Problem)]
     by_name: dict[str, A.Domain] = {}
     for d in domains:

@@ -181,3 +181,14 @@ def test_mutated_semantics_modules_give_diagnostics_never_a_traceback(tmp_path):
                 t = ["("]
         report = _check(tmp_path, " ".join(t))
         assert all(d.code for d in report.diagnostics)
+
+
+def test_a_semantics_module_checked_alone_is_read_for_its_syntax(tmp_path):
+    """`tmpc check module.tmpc` without the run manifest: no false errors about `?hand` or the
+    domain's parameters (the module is checked when a manifest applies it), but its syntax
+    errors are reported."""
+    report = check_paths([SEMANTICS / "blocksworld.tmpc"])
+    assert report.ok and not report.programs, [d.message for d in report.diagnostics]
+    broken = tmp_path / "m.tmpc"
+    broken.write_text(MODULE.replace("(:hand r_gripper_tool_frame)", "(:hand r_gripper_tool_frame"))
+    assert "E001" in {d.code for d in check_paths([broken]).diagnostics}
