@@ -282,7 +282,7 @@ def check_paths(paths: list[str | Path], ws: Workspace | None = None,
             world_diags += _check_world_file(Path(p), ws)
             for config in ws.configs[before:]:
                 pddl += [config.domain, config.problem]
-                if getattr(config, "module", None) is not None:
+                if config.module is not None:
                     semantics[str(Path(config.problem).resolve())] = config.module
         else:
             pddl.append(p)

@@ -81,24 +81,24 @@ def _atoms(effect) -> list[tuple[bool, A.Atom]]:
     return []
 
 
-def _conj(*parts) -> A.Formula | None:
+def _flat(kind, *parts):
+    """``kind`` (:class:`~tmpc.lang.ast.And` or :class:`~tmpc.lang.ast.AndEffect`) of
+    ``parts`` without the Nones, nested ones of that kind spliced in; one part stays itself."""
     flat: list = []
     for p in parts:
-        if p is None:
-            continue
-        flat.extend(p.parts if isinstance(p, A.And) else (p,))
+        if p is not None:
+            flat.extend(p.parts if isinstance(p, kind) else (p,))
     if not flat:
         return None
-    return flat[0] if len(flat) == 1 else A.And(tuple(flat), span=flat[0].span)
+    return flat[0] if len(flat) == 1 and kind is A.And else kind(tuple(flat), span=flat[0].span)
+
+
+def _conj(*parts) -> A.Formula | None:
+    return _flat(A.And, *parts)
 
 
 def _effects(*parts) -> A.Effect | None:
-    flat: list = []
-    for p in parts:
-        if p is None:
-            continue
-        flat.extend(p.parts if isinstance(p, A.AndEffect) else (p,))
-    return A.AndEffect(tuple(flat), span=flat[0].span) if flat else None
+    return _flat(A.AndEffect, *parts)
 
 
 class _Overlay:

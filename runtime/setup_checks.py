@@ -30,7 +30,7 @@ from tmpc.compiler.lower import Lowerer
 from tmpc.compiler.robot import RobotModel, robot_model
 from tmpc.compiler.state import initial_state
 from tmpc.lang import ast as A
-from tmpc.compiler.rotations import quat_matrix
+from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error, warning
 from tmpc.lang.semantics_module import MEANS_SUFFIX
 from tmpc.lang.world import collision_tolerance
@@ -267,12 +267,7 @@ def init_meanings(world) -> list[Diagnostic]:
     if program is None or program.problem is None:
         return []
     scope, scene = program.scope, world.scene
-    poses = {}
-    for o in scene.objects:
-        T = np.eye(4)
-        T[:3, :3] = quat_matrix(o.pose.rotation)
-        T[:3, 3] = o.pose.translation
-        poses[o.name] = T
+    poses = {o.name: pose_matrix(o.pose) for o in scene.objects}
     ev = Evaluator(scene, None, None, None, poses, scope)
     out = []
     for item in program.problem.init:

@@ -269,8 +269,15 @@ def separate_duplicates(r: XmlReader, objects: list, spans: list) -> list:
     """Movable objects written at the place of another (the suite's clutter.xml puts two pairs
     of sticks at one spot each): each later one moves sideways, by whole footprints, to the
     nearest place where its footprint meets no other movable object's, with warning W517. The
-    footprint is the circle around the mesh's xy bounds."""
-    radius = [_obj_radius(o.shape.mesh if o.shape is not None else None) for o in objects]
+    footprint is the circle around the mesh's xy bounds; meshes are read only when a place is
+    shared."""
+    radii: dict[int, float] = {}
+
+    def radius(i: int) -> float:
+        if i not in radii:
+            shape = objects[i].shape
+            radii[i] = _obj_radius(shape.mesh if shape is not None else None)
+        return radii[i]
     placed = [(i, o.pose.translation) for i, o in enumerate(objects) if o.movable]
     out = list(objects)
     for k, (i, p) in enumerate(placed):
@@ -278,12 +285,12 @@ def separate_duplicates(r: XmlReader, objects: list, spans: list) -> list:
                  abs(p[2] - q[2]) < 0.05]
         if not clash:
             continue
-        step = 2 * radius[i] + 0.01
+        step = 2 * radius(i) + 0.01
         others = [(j, out[j].pose.translation) for j, _ in placed if j != i]
         for n in range(1, 6):
             cands = [(p[0] + dx * n * step, p[1] + dy * n * step, p[2])
                      for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1))]
-            free = [c for c in cands if all(math.dist(c[:2], q[:2]) >= radius[i] + radius[j]
+            free = [c for c in cands if all(math.dist(c[:2], q[:2]) >= radius(i) + radius(j)
                                              + 0.005 for j, q in others)]
             if free:
                 new = free[0]

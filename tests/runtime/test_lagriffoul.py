@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.inputs import load_world
 from tmpc.runtime.evaluate import Evaluator, Obj
 
@@ -42,14 +43,6 @@ def test_manifests_are_what_make_runs_writes():
         assert (SUITE / name / "run.toml").read_text() == mr.render(name, spec), name
 
 
-def _pose(p) -> np.ndarray:
-    from tmpc.compiler.rotations import quat_matrix
-    T = np.eye(4)
-    T[:3, :3] = quat_matrix(p.rotation)
-    T[:3, 3] = p.translation
-    return T
-
-
 @pytest.fixture(scope="module")
 def worlds():
     return {}
@@ -69,7 +62,7 @@ def test_every_init_atom_with_a_meaning_holds_in_the_files_start(worlds, name):
     world = _world(worlds, name)
     prog = world.program
     assert prog is not None
-    poses = {o.name: _pose(o.pose) for o in world.scene.objects}
+    poses = {o.name: pose_matrix(o.pose) for o in world.scene.objects}
     ev = Evaluator(world.scene, None, None, None, poses, prog.scope)
     checked, false = 0, set()
     for item in prog.problem.init:
@@ -97,13 +90,13 @@ def test_grasped_by_matches_the_grasp_set_by_construction(worlds):
     prog = world.program
     obj = world.scene.object("a")
     g = obj.grasps[0]
-    T_obj = _pose(obj.pose)
-    T_t = _pose(g.template)
+    T_obj = pose_matrix(obj.pose)
+    T_t = pose_matrix(g.template)
     axis = np.array(g.axis)
     decl = prog.scope.predicates["grasp"]
 
     def holds(T_hand):
-        poses = {o.name: _pose(o.pose) for o in world.scene.objects}
+        poses = {o.name: pose_matrix(o.pose) for o in world.scene.objects}
         poses["hand"] = T_hand
         ev = Evaluator(world.scene, None, None, None, poses, prog.scope)
         env = {decl.params[0].name.key: Obj("hand"), decl.params[1].name.key: Obj("a")}
