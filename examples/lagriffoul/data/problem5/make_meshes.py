@@ -87,7 +87,7 @@ def main() -> None:
     write("stove", boxes([(-d / 2, d / 2, -w / 2, w / 2, 0.0, top - 0.01),
                           (-0.08, 0.08, -0.08, 0.08, top - 0.01, top)]))      # a hob plate
     write("glass", cylinder(0.035, 0.14))
-    write("cabbage", cylinder(0.05, 0.12))
+    write("cabbage", cylinder(0.035, 0.12))                # a PR2 opens to about 9 cm
     write("radish", cylinder(0.025, 0.09))                  # with its leaves
     # the places on the table and the radishes' spots on the shelf: 2 mm discs (as the
     # Non-Monotonic problem's targets), resting on their furniture
