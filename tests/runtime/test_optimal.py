@@ -16,6 +16,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from tests.support import CLUTTER, run_tmpc, validate_result
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalPlanner, Transition, lazy_astar
+from tmpc.runtime.planners.retreat import hand_frames
 
 # clutter_problem_1: the bundled 1-stick clutter problem, shared (tests/conftest.py)
 
@@ -115,7 +116,8 @@ def test_first_solutions_validate_and_are_deterministic(clutter_problem_1, tmp_p
 def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
     """The search trusts escape stubs without checking them: each must be free at the
     resolution under exact fcl (no first pass), inside its mode and no longer than the
-    longest escape step; only the last stub of a chain gets nearest-neighbour edges."""
+    longest escape step (a retreat step: its hand moves at most twice the Cartesian step);
+    only the last stub of a chain gets nearest-neighbour edges."""
     from tmpc.runtime.collision import CollisionWorld
 
     p = clutter_problem_1
@@ -131,8 +133,15 @@ def test_escape_stubs_are_short_and_free_under_exact_fcl(clutter_problem_1):
         assert planner.graph.node_mode[a] == mid
         assert (b in planner.graph.mode_vertices[mid]) == (b not in parents)
         qa, qb = planner.graph.Q[a], planner.graph.Q[b]
-        assert np.abs(p.difference(qb, qa) / span).max() <= max(planner.opt.escape_steps) + 1e-9
+        if b in planner.escapes.retreat_vertices:
+            fa, fb = p.frames_of(np.stack([qa, qb]))
+            moved = max(np.linalg.norm(fb.p[h] - fa.p[h]) for h in hand_frames(p))
+            assert moved <= 2 * planner.opt.cartesian_step
+        else:
+            assert np.abs(p.difference(qb, qa) / span).max() <= \
+                max(planner.opt.escape_steps) + 1e-9
         assert cost == pytest.approx(float(p.cost(qb, qa)))
+    assert planner.escapes.retreat_vertices, "no retreat out of any portal"
     for a, b, _ in planner.graph.stubs[:60]:
         m = planner.graph.modes[planner.graph.node_mode[a]]
         assert exact.check_motion(planner.graph.Q[a], planner.graph.Q[b], planner.opt.resolution,
@@ -582,3 +591,29 @@ def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_wor
             assert np.abs(ta[f] - tb[f]).max() < 1e-9 and np.abs(Ra[f] - Rb[f]).max() < 1e-9
     _, report = _validate(p, planner.result("solved", 0.0), tmp_path, seed)
     assert report.valid, report
+
+
+def test_nearest_neighbour_lists_stay_exact_while_k_grows():
+    """The kept nearest-neighbour lists are merged with new vertices: when k grows past the
+    entries a list holds exactly (a list cut to k + 4, then merged), it is rebuilt; each
+    vertex's first k neighbours equal a brute-force sort. (A list cut at 9 and merged to 11
+    gave a wrong tenth neighbour once k reached 10.)"""
+    from tmpc.runtime.planners.optimal.graph import ModeGraph
+
+    class Euclid:
+        def cost(self, Q, q):
+            return np.linalg.norm(Q - q, axis=-1)
+
+    G = ModeGraph.__new__(ModeGraph)
+    G.p, G.dim, G._nn = Euclid(), 3, {}
+    G.Q = np.random.default_rng(0).random((400, 3))
+    G.mode_vertices = {0: []}
+    ids = G.mode_vertices[0]
+    for add, k in ((100, 5), (10, 7), (10, 10), (40, 12), (1, 16), (80, 16)):
+        ids += range(len(ids), len(ids) + add)
+        nn, nc = G.neighbours(0, k)
+        X = G.Q[ids]
+        C = np.linalg.norm(X[:, None] - X[None], axis=-1)
+        np.fill_diagonal(C, np.inf)
+        assert np.allclose(nc[:, :k], np.sort(C, axis=1)[:, :k]), (add, k)
+        assert np.allclose(np.take_along_axis(C, nn[:, :k], 1), nc[:, :k])

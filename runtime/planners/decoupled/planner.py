@@ -37,6 +37,7 @@ from tmpc.runtime.planners.decoupled.motion import (check_motion_planner, mode_s
 from tmpc.runtime.planners.decoupled.space import motion_seed, path_cost
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
 from tmpc.runtime.planners.optimal.tasks import TaskPlans
+from tmpc.runtime.planners.retreat import best_retreat, hand_frames, retreat_chains
 from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
 
 
@@ -50,6 +51,10 @@ class DecoupledOptions:
     resolution: float = 0.05           # motion-check resolution (the validator's default)
     shortcut: bool = True              # tmpc's shortcuts on the plan (off: --simplify ompl)
     shortcut_rounds: int = 32          # ... rounds of 16 tries, each round one batched check
+    #: each motion leaves its start and reaches its end by the hand's straight retreat (up,
+    #: back or both; tmpc's), this many steps of ``retreat_step`` metres (0: off)
+    retreat_steps: int = 4
+    retreat_step: float = 0.025
     min_steps: int = 0
     max_steps: int = 100
 
@@ -73,6 +78,7 @@ class DecoupledPlanner:
                                                        max_steps=options.max_steps),
                                self.counts)
         self.space = None
+        self.hands: list[int] | None = None
         self.mode_count = 1
         self.motion_seconds = 0.0
 
@@ -255,10 +261,29 @@ class DecoupledPlanner:
             return None
         k = self.counts["motions"]
         self.counts["motions"] += 1
-        res = plan_motion(self.p, mode, q0, q1, self.opt.motion_planner, budget,
+        out, back = self.retreats(mode, q0, q1)
+        a = out[-1] if out else q0
+        b = back[-1] if back else q1
+        res = plan_motion(self.p, mode, a, b, self.opt.motion_planner, budget,
                           motion_seed(self.seed, k), self.space, self.opt.resolution)
         self.motion_seconds += res.seconds
         if res.path is None:
             self.counts["motion_failures"] += 1
             return None
-        return res.path
+        return np.vstack([q0[None], *(x[None] for x in out), res.path,
+                          *(x[None] for x in back[::-1]), q1[None]])
+
+    def retreats(self, mode: Mode, q0: np.ndarray, q1: np.ndarray) -> tuple[list, list]:
+        """The hand's retreat out of ``q0`` and out of ``q1`` (the approach to it, reversed):
+        the longest straight chain of each (:mod:`tmpc.runtime.planners.retreat`); none
+        with ``retreat_steps`` 0 or no grasping frame."""
+        if self.opt.retreat_steps <= 0:
+            return [], []
+        if self.hands is None:
+            self.hands = hand_frames(self.p)
+        if not self.hands:
+            return [], []
+        c0, c1 = retreat_chains(self.p, [(mode, q0), (mode, q1)], self.hands,
+                                self.opt.retreat_steps, self.opt.retreat_step,
+                                self.opt.resolution)
+        return best_retreat(c0), best_retreat(c1)

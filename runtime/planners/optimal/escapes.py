@@ -21,6 +21,7 @@ import numpy as np
 
 from tmpc.runtime.planners.optimal.graph import ModeGraph, edge_key
 from tmpc.runtime.planners.optimal.options import OptimalOptions
+from tmpc.runtime.planners.retreat import hand_frames, retreat_chains
 from tmpc.runtime.problem import PlanningProblem
 
 
@@ -38,6 +39,9 @@ class Escapes:
         self.counts = counts
         self.due: list[int] = []
         self.waiting: set[int] = set()
+        self._hands: list[int] | None = None
+        #: the vertices of retreat chains (the others are random stubs)
+        self.retreat_vertices: set[int] = set()
 
     def new_portal(self, v: int) -> None:
         """Vertex ``v`` is a new portal: due at once, or (``escape_lazy``) waiting."""
@@ -71,6 +75,8 @@ class Escapes:
         span = np.where(p.wraps, 2 * np.pi, np.maximum(p.upper - p.lower, 1e-9))
         steps = np.asarray(opt.escape_steps, float)
         made, parents = [], set()
+        if opt.cartesian_steps:
+            made += self.cartesian(todo, parents)
         for _ in range(opt.escape_rounds):
             items = []
             for v in todo:
@@ -96,3 +102,29 @@ class Escapes:
                 G.mode_vertices[mid].append(w)
                 G.stub_count[mid] = G.stub_count.get(mid, 0) + 1
         self.counts["escapes"] += len(made)
+
+    def cartesian(self, todo: list[int], parents: set[int]) -> list[int]:
+        """Retreat chains out of each portal in ``todo``
+        (:func:`~tmpc.runtime.planners.retreat.retreat_chains`: the hand straight up, back,
+        or both), kept as stubs; returns the new vertices."""
+        p, G, opt = self.p, self.graph, self.opt
+        if self._hands is None:
+            self._hands = hand_frames(p)
+        if not self._hands or not todo:
+            return []
+        chains = retreat_chains(p, [(G.mode_of(v), G.Q[v]) for v in todo], self._hands,
+                                opt.cartesian_steps, opt.cartesian_step, opt.resolution)
+        made = []
+        for v, per in zip(todo, chains):
+            mode = G.mode_of(v)
+            for chain in per:
+                last = v
+                for q in chain:
+                    w = G.add_vertex(q, mode, listed=False)
+                    G.stubs.append((last, w, float(p.cost(q[None], G.Q[last])[0])))
+                    G.edge_ok[edge_key(last, w)] = G.fine[edge_key(last, w)] = True
+                    parents.add(last)
+                    made.append(w)
+                    last = w
+        self.retreat_vertices.update(made)
+        return made

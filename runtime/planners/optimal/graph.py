@@ -275,13 +275,13 @@ class ModeGraph:
         """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
         costs, sorted, at least ``k`` per vertex (fewer when the mode has fewer): kept between
         searches and updated with the new vertices only (their costs to all, the old lists
-        merged with the new columns); rebuilt when k outgrows what is kept."""
+        merged with the new columns); rebuilt when k outgrows the entries they hold exactly."""
         ids = self.mode_vertices[mid]
         X = self.Q[ids]
         keep = min(k + 4, len(ids) - 1)
-        nn, nc = self._nn.get(mid, (np.zeros((0, 0), np.int64), np.zeros((0, 0))))
+        nn, nc, exact = self._nn.get(mid, (np.zeros((0, 0), np.int64), np.zeros((0, 0)), 0))
         old = len(nn)
-        if old and nn.shape[1] < min(k, len(ids) - 1):
+        if old and exact < min(k, len(ids) - 1):
             old = 0                                     # k grew past the lists: start over
         new = np.arange(old, len(ids))
         if len(new):
@@ -301,5 +301,10 @@ class ModeGraph:
                                      _pad(rows_new[1], keep, np.inf)])
             else:
                 nn, nc = rows_new
-            self._nn[mid] = (nn, nc)
+            # how many leading entries of every list are exact: all of them while a list holds
+            # every other vertex; once cut to ``keep``, the entries a merge appends past an old
+            # list's cut may miss old vertices that were cut, so its count stays
+            complete = keep >= len(ids) - 1
+            exact = math.inf if complete else min(keep, exact if old else keep)
+            self._nn[mid] = (nn, nc, exact)
         return nn, nc

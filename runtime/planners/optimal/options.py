@@ -37,6 +37,10 @@ class OptimalOptions:
     escape_tries: int = 16             # short motions tried out of each new portal (tmpc's; 0: off)
     escape_rounds: int = 2             # ... and again out of the free ends kept
     escape_keep: int = 2               # free ends kept per vertex and round
+    #: Cartesian escapes: straight hand motions (up, back, both) of this many steps of
+    #: ``cartesian_step`` metres out of each portal escaped from (tmpc's; 0: off)
+    cartesian_steps: int = 4
+    cartesian_step: float = 0.025
     #: escape only out of portals one of whose edges failed (at the next sampling, or at once
     #: when a search before the first solution found no path)
     escape_lazy: bool = True
