@@ -249,13 +249,15 @@ def _native(r: TomlReader) -> RunConfig:
                 paths[key] = _path(r, r.span(f"problem.{key}"), f"problem.{key}", prob[key],
                                    False, what[key], want_dir=key == "mesh_dir")
     planner = r.table("planner", data.get("planner", {}))
-    r.check_keys("planner", planner, (), ("time_limit", "output", *PLANNER_PARAMS))
+    r.check_keys("planner", planner, (), ("name", "time_limit", "output", *PLANNER_PARAMS))
     params: list[tuple[str, object]] = []
-    time_limit = output = None
+    time_limit = output = name = None
     for key, value in planner.items():
         with r.part():
             full = f"planner.{key}"
-            if key == "time_limit":
+            if key == "name":
+                name = r.expect(full, value, str)
+            elif key == "time_limit":
                 time_limit = _positive(r, full, r.expect(full, value, float))
             elif key == "output":
                 output = _output(r, r.span(full), full, value)
@@ -275,7 +277,7 @@ def _native(r: TomlReader) -> RunConfig:
     return RunConfig(r.source.path, paths["domain"], paths["problem"], paths["scene"],
                      None if module else semantics, paths.get("allowed_collisions"),
                      paths.get("mesh_dir"), tuple(params), time_limit, output, "tmpc-toml",
-                     names=names, module=module, mobile_base=mobile)
+                     names=names, module=module, mobile_base=mobile, planner=name)
 
 
 def _names(r: TomlReader, value: Any) -> tuple[tuple[str, str], ...]:

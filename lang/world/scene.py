@@ -212,6 +212,9 @@ class RunConfig:
     #: the native manifest's ``[names]``: (PDDL name, scene name) pairs, in file order; the scene
     #: loaded for this configuration calls each scene object by its PDDL name
     names: tuple[tuple[str, str], ...] = ()
+    #: the native manifest's ``[planner] name``: the planner ``tmpc run`` uses without
+    #: ``--planner`` (None: the default); the runtime checks the name (E826)
+    planner: str | None = None
 
 
 #: the penetration depth (m) the legacy planners ignored, by run-configuration format

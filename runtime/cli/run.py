@@ -31,11 +31,6 @@ DEFAULT_PLANNER = "optimal"
 
 def run_run(args, imports: float = 0.0) -> int:
     """``imports``: the seconds importing this command took (reported by ``-v``)."""
-    if args.planner is None:
-        # no --planner: the optimal planner's first solution (as fast as unified's first plan
-        # on the problems measured, and shorter); `--planner optimal` stays anytime
-        args.planner = DEFAULT_PLANNER
-        args.first_solution = args.first_solution or not args.until_converged
     _check_outputs([(args.output, "E828"), (args.html, "E815"), (args.png, "E815"),
                     (getattr(args, "explain", None), "E828"),
                     (None if args.output else _configured_output(args.input), "E828")])
@@ -45,6 +40,13 @@ def run_run(args, imports: float = 0.0) -> int:
     # the command line wins; else the configuration's time limit and output (planet's TOML
     # `timeout`/`output`, a manifest's [planner] time_limit/output); else 120 s and no file
     config = world.config
+    if args.planner is None:
+        # no --planner: the manifest's `[planner] name`, else the optimal planner; either to
+        # its first solution (the optimal one's is as fast as unified's first plan on the
+        # problems measured, and shorter); `--planner optimal` stays anytime
+        args.planner = (config.planner if config is not None and config.planner
+                        else DEFAULT_PLANNER)
+        args.first_solution = args.first_solution or not args.until_converged
     time_limit = args.time_limit if args.time_limit is not None else \
         (config.time_limit if config is not None and config.time_limit else DEFAULT_TIME_LIMIT)
     output = args.output or (str(config.output) if config is not None and config.output

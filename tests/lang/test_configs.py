@@ -405,3 +405,20 @@ def test_check_traces_the_lua_predicates_as_run_does(tmp_path, capsys):
     assert lines[found["E709"]["span"]["line"] - 1].strip() == "local w = x.mass"
     assert lines[found["E704"]["span"]["line"] - 1].strip() == "while true do end"
     assert all(d["span"]["path"].endswith("sort.lua") and d["hint"] for d in found.values()), got
+
+
+def test_native_manifest_names_its_planner(tmp_path):
+    """`[planner] name` is the planner `tmpc run` uses without --planner; a name that is not a
+    string is an error at its value, one that names no planner is E826 at the run."""
+    d = copy_tree(EXAMPLES / "tabletop", tmp_path / "tabletop")
+    run = d / "tabletop.toml"
+    base = run.read_text()
+    assert load_config(run).planner is None
+    run.write_text(base + '\n[planner]\nname = "decoupled"\n')
+    assert load_config(run).planner == "decoupled"
+    run.write_text(base + "\n[planner]\nname = 3\n")
+    check_error("E506", run, "3")
+    run.write_text(base + '\n[planner]\nname = "optimel"\n')
+    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(run),
+                        "--time-limit", "1"], capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "E826" in r.stdout + r.stderr and "Traceback" not in r.stderr
