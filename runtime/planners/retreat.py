@@ -40,25 +40,31 @@ def hand_frames(problem: PlanningProblem) -> list[int]:
     return [f for f in found if f is not None]
 
 
-def cartesian_step(problem: PlanningProblem, q: np.ndarray, hand: int, direction: int,
-                   step: float) -> np.ndarray:
-    """``q`` after one straight step of frame ``hand`` (``direction``: an index of
-    :data:`DIRECTIONS`) of ``step`` metres, joint limits respected."""
-    Q = np.repeat(np.asarray(q, float)[None], len(q) + 1, 0)
-    Q[1:] += np.eye(len(q)) * EPS
-    frames = problem.frames_of(Q)
-
-    def points(f):
-        R, o = f.R[hand], f.p[hand]
-        return np.concatenate([o, o + 0.1 * R[:, 0], o + 0.1 * R[:, 1]])
-
-    x0 = points(frames[0])
-    J = np.stack([(points(f) - x0) / EPS for f in frames[1:]], 1)        # (9, n)
-    up, back = np.array([0.0, 0.0, 1.0]), -frames[0].R[hand][:, 0]
-    d = (up, back, (up + back) / np.sqrt(2.0))[direction] * step
-    dq = J.T @ np.linalg.solve(J @ J.T + DAMPING * np.eye(9), np.tile(d, 3))
-    q1 = q + dq
-    return problem.wrap(np.where(problem.wraps, q1, np.clip(q1, problem.lower, problem.upper)))
+def cartesian_steps(problem: PlanningProblem, Q: np.ndarray, hands: np.ndarray,
+                    directions: np.ndarray, step: float) -> np.ndarray:
+    """Each row of ``Q`` (B, n) after one straight step of its frame ``hands[b]`` (direction
+    ``directions[b]``, an index of :data:`DIRECTIONS`) of ``step`` metres, joint limits
+    respected: one batched forward kinematics for every row's finite differences."""
+    B, n = Q.shape
+    X = np.repeat(Q[:, None], n + 1, 1)                          # (B, n+1, n)
+    X[:, 1:] += np.eye(n)[None] * EPS
+    frames = problem.frames_of(X.reshape(-1, n))
+    R = np.stack([f.R for f in frames]).reshape(B, n + 1, -1, 3, 3)
+    o = np.stack([f.p for f in frames]).reshape(B, n + 1, -1, 3)
+    rows = np.arange(B)
+    Rh = R[rows, :, hands]                                       # (B, n+1, 3, 3)
+    oh = o[rows, :, hands]                                       # (B, n+1, 3)
+    pts = np.concatenate([oh, oh + 0.1 * Rh[..., 0], oh + 0.1 * Rh[..., 1]], -1)  # (B, n+1, 9)
+    J = np.swapaxes((pts[:, 1:] - pts[:, :1]) / EPS, 1, 2)       # (B, 9, n)
+    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (B, 3))
+    back = -Rh[:, 0, :, 0]
+    d = np.where((directions == 0)[:, None], up,
+                 np.where((directions == 1)[:, None], back, (up + back) / np.sqrt(2.0))) * step
+    dx = np.tile(d, 3)                                           # (B, 9)
+    A = J @ np.swapaxes(J, 1, 2) + DAMPING * np.eye(9)
+    dq = (np.swapaxes(J, 1, 2) @ np.linalg.solve(A, dx[..., None]))[..., 0]
+    Q1 = Q + dq
+    return problem.wrap(np.where(problem.wraps, Q1, np.clip(Q1, problem.lower, problem.upper)))
 
 
 def retreat_chains(problem: PlanningProblem, items: list[tuple[Mode, np.ndarray]],
@@ -70,19 +76,32 @@ def retreat_chains(problem: PlanningProblem, items: list[tuple[Mode, np.ndarray]
     out = [[[] for _ in range(len(hands) * len(DIRECTIONS))] for _ in items]
     live = [(i, k, h, d, np.asarray(q, float)) for i, (_, q) in enumerate(items)
             for k, (h, d) in enumerate((h, d) for h in hands for d in range(len(DIRECTIONS)))]
+    seen: set = set()
     for _ in range(steps):
         if not live:
             break
-        nxt = [cartesian_step(problem, q, h, d, step) for _, _, h, d, q in live]
-        oks = problem.motions_valid_many(
-            [(items[i][0], q[None], q1[None]) for (i, _, _, _, q), q1 in zip(live, nxt)],
-            resolution, ends=True)
+        nxt = cartesian_steps(problem, np.stack([c[4] for c in live]),
+                              np.array([c[2] for c in live]), np.array([c[3] for c in live]),
+                              step)
+        Q0 = np.stack([c[4] for c in live])
+        groups: dict[int, list[int]] = {}           # one batched check per mode
+        for r, c in enumerate(live):
+            groups.setdefault(id(items[c[0]][0]), []).append(r)
+        idx = list(groups.values())
+        got = problem.motions_valid_many([(items[live[rs[0]][0]][0], Q0[rs], nxt[rs])
+                                          for rs in idx], resolution, ends=True)
+        oks = np.zeros(len(live), bool)
+        for rs, ok in zip(idx, got):
+            oks[rs] = np.asarray(ok).reshape(-1)
         alive = []
-        for (i, k, h, d, q), q1, ok in zip(live, nxt, oks):
-            # a step the joint limits cut to nothing ends its chain (no duplicate vertices)
-            moved = np.abs(problem.difference(q1, q)).max() > 1e-6
-            if moved and bool(np.asarray(ok).reshape(-1)[0]) and np.isfinite(q1).all() \
-                    and not any(np.allclose(q1, c[-1], atol=1e-9) for c in out[i] if c):
+        moved = np.abs(problem.difference(nxt, Q0)).max(1) > 1e-6
+        for (i, k, h, d, q), q1, ok, m in zip(live, nxt, oks, moved):
+            # a step the joint limits cut to nothing ends its chain; so does one that lands
+            # where another chain of the same configuration is (no duplicate vertices)
+            key = (i, np.round(q1, 9).tobytes())
+            if m and ok and np.isfinite(q1).all() \
+                    and key not in seen:
+                seen.add(key)
                 out[i][k].append(q1)
                 alive.append((i, k, h, d, q1))
         live = alive

@@ -42,9 +42,15 @@ class Escapes:
         self._hands: list[int] | None = None
         #: the vertices of retreat chains (the others are random stubs)
         self.retreat_vertices: set[int] = set()
+        #: portals whose retreat chains are due (``retreat_eager``)
+        self.retreat_due: list[int] = []
+        self.retreated: set[int] = set()
 
     def new_portal(self, v: int) -> None:
-        """Vertex ``v`` is a new portal: due at once, or (``escape_lazy``) waiting."""
+        """Vertex ``v`` is a new portal: due at once, or (``escape_lazy``) waiting; its retreat
+        chains are due at once with ``retreat_eager``."""
+        if self.opt.retreat_eager and self.opt.cartesian_steps:
+            self.retreat_due.append(v)
         if self.opt.escape_lazy:
             self.waiting.add(v)
         else:
@@ -70,13 +76,17 @@ class Escapes:
         """Escape stubs out of the portals due (see the module's docstring)."""
         todo, self.due = self.due, []
         opt, p, G = self.opt, self.p, self.graph
+        made, parents = [], set()
+        if opt.cartesian_steps:
+            chains = [v for v in dict.fromkeys(self.retreat_due + todo) if v not in self.retreated]
+            self.retreat_due = []
+            self.retreated.update(chains)
+            made += self.cartesian(chains, parents)
         if not todo or opt.escape_tries <= 0:
+            self._list(made, parents)
             return
         span = np.where(p.wraps, 2 * np.pi, np.maximum(p.upper - p.lower, 1e-9))
         steps = np.asarray(opt.escape_steps, float)
-        made, parents = [], set()
-        if opt.cartesian_steps:
-            made += self.cartesian(todo, parents)
         for _ in range(opt.escape_rounds):
             items = []
             for v in todo:
@@ -96,6 +106,12 @@ class Escapes:
                     parents.add(v)
                     todo.append(w)
             made += todo
+        self._list(made, parents)
+
+    def _list(self, made: list[int], parents: set[int]) -> None:
+        """The last stub of each chain among ``made`` joins its mode's nearest-neighbour
+        vertices; all are counted."""
+        G = self.graph
         for w in made:
             if w not in parents:
                 mid = G.node_mode[w]

@@ -39,8 +39,10 @@ class OptimalOptions:
     escape_keep: int = 2               # free ends kept per vertex and round
     #: Cartesian escapes: straight hand motions (up, back, both) of this many steps of
     #: ``cartesian_step`` metres out of each portal escaped from (tmpc's; 0: off)
-    cartesian_steps: int = 4
+    cartesian_steps: int = 8
     cartesian_step: float = 0.025
+    #: retreat chains out of every new portal at once (not only once one of its edges failed)
+    retreat_eager: bool = False
     #: escape only out of portals one of whose edges failed (at the next sampling, or at once
     #: when a search before the first solution found no path)
     escape_lazy: bool = True
