@@ -215,9 +215,12 @@ class TaskPlanner:
 
     # ---- solving ----------------------------------------------------------------------------
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
-                  min_steps: int = 0) -> PlanResult:
+                  min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
         """The shortest plan of length ``min_steps..max_steps`` satisfying everything added so
-        far; horizons already proven impossible are skipped."""
+        far; horizons already proven impossible are skipped. ``horizon_cap``: seconds one
+        horizon's check may take before the next horizon is tried (the plan found may then be
+        longer than the shortest: a first solution needs a plan, not a proof that no shorter one
+        exists); a horizon so skipped is tried again, with the same cap, at the next call."""
         t0 = time.perf_counter()
         deadline = None if time_limit is None else t0 + time_limit
         stats: list[HorizonStats] = []
@@ -239,7 +242,14 @@ class TaskPlanner:
             if not self._extend_to(k, deadline):
                 return result(TIMEOUT, k)
             new = [self._sizes[n] for n in range(had + 1, k + 1)]
-            answer, solve_s = self._check(k, deadline)
+            cap = None
+            if horizon_cap is not None:
+                cap = horizon_cap
+                capped = time.perf_counter() + cap
+                check_by = capped if deadline is None else min(deadline, capped)
+            else:
+                check_by = deadline
+            answer, solve_s = self._check(k, check_by)
             st = HorizonStats(k, sum(x[0] for x in new), sum(x[1] for x in new),
                               sum(x[2] for x in new), solve_s, answer)
             stats.append(st)
@@ -247,7 +257,10 @@ class TaskPlanner:
             if answer == "sat":
                 return result(SOLVED, k, self._extract(k))
             if answer == "unknown":
-                return result(TIMEOUT, k)
+                if cap is None or (deadline is not None and time.perf_counter() >= deadline):
+                    return result(TIMEOUT, k)
+                k += 1                            # not proven: tried again at the next call
+                continue
             self._unsat.add(k)
             k += 1
         return result(EXHAUSTED, max_steps)

@@ -504,3 +504,32 @@ def test_static_checks_quantifiers_may_be_vacuous():
         :effect (and)))"""
     got = [c for c, m in _codes(text) if "`ex`" in m or "`vac`" in m]
     assert got == ["W610"]
+
+
+def test_a_horizon_cap_gives_a_longer_plan_rather_than_a_proof():
+    """``horizon_cap`` (the optimal planner's first solution): a horizon whose check outlasts
+    the cap is skipped, not proven impossible; the plan found replays, and the next call tries
+    the skipped horizon again."""
+    import time
+
+    pair = next(p for p in PROBLEMS if p[0].parent.name == "blocksworld")
+    gp = ground(load_checked(list(pair)))
+    optimum = bfs_length(gp)
+    tp = TaskPlanner(gp)
+    real, slow = tp._check, {optimum}
+
+    def check(k, deadline):
+        if k in slow:                        # this horizon outlasts any cap
+            time.sleep(max(0.0, deadline - time.perf_counter()))
+            return "unknown", 0.0
+        return real(k, deadline)
+
+    tp._check = check
+    res = tp.next_plan(40, horizon_cap=0.05)
+    assert res.status == SOLVED and simulate(gp, res.actions)[0]
+    assert len(res.actions) > optimum and optimum not in tp._unsat
+    assert tp.impossible_below() <= optimum
+    slow.clear()
+    tp.exclude_prefix(res.actions)
+    again = tp.next_plan(40, horizon_cap=0.05)
+    assert again.status == SOLVED and again.horizon == optimum

@@ -75,7 +75,8 @@ class DecoupledPlanner:
                        "transition_failures": 0, "transitions": 0, "motions": 0,
                        "motion_failures": 0, "backtracks": 0, "task_restarts": 0}
         self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
-                                                       max_steps=options.max_steps),
+                                                       max_steps=options.max_steps,
+                                                       first_solution=True),
                                self.counts)
         self.space = None
         self.hands: list[int] | None = None

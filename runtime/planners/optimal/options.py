@@ -65,6 +65,9 @@ class OptimalOptions:
     cap_growth: int = 10
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
+    #: with ``first_solution``: seconds the task planner may spend on one horizon before it
+    #: tries the next (a plan, not a proof that none is shorter; tmpc's; None: off)
+    horizon_cap: float | None = 1.0
     until_converged: bool = False
     converged_solutions: int = 10
     converged_ratio: float = 0.10

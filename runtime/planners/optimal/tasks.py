@@ -87,7 +87,9 @@ class TaskPlans:
             if self.exhausted:
                 return False
             left = None if math.isinf(deadline) else max(0.0, deadline - time.perf_counter())
-            res = self.tp.next_plan(self.opt.max_steps, left, min_steps=self.opt.min_steps)
+            cap = self.opt.horizon_cap if self.opt.first_solution else None
+            res = self.tp.next_plan(self.opt.max_steps, left, min_steps=self.opt.min_steps,
+                                    horizon_cap=cap)
         finally:
             self.p.timers.task_planning += time.perf_counter() - t
         if res.status != SOLVED:
