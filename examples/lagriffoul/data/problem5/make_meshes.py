@@ -56,7 +56,7 @@ def write(name: str, mesh) -> None:
 
 
 #: furniture: (depth x, width y, top height z); the shelf's walls and roof are 2 cm thick
-SHELF = (0.30, 0.30, 0.80, 0.33)          # depth, width, board top, inner height
+SHELF = (0.30, 0.50, 0.80, 0.33)          # depth, width, board top, inner height
 TABLE = (0.40, 0.40, 0.70)
 DISHWASHER = (0.28, 0.28, 0.78)
 STOVE = (0.24, 0.24, 0.78)
