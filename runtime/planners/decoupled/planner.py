@@ -3,7 +3,8 @@ projection sampler, a motion planner between them, backtracking to new transitio
 then to the next task plan.
 
 Task plans come from :class:`~tmpc.runtime.planners.optimal.tasks.TaskPlans` exactly as the
-optimal planner uses them: the shortest plan consistent with what was learnt, the last plan's
+optimal planner uses them to its first solution: the shortest plan consistent with what was
+learnt, a horizon whose check outlasts ``horizon_cap`` skipped rather than proven, the last plan's
 prefix through its first step that never succeeded excluded and blockers pinned before the next
 one (thesis §4.3.5). A plan is followed depth first: at each step, up to ``samples`` transition
 configurations are projected onto the action's geometric precondition (the first from the
