@@ -12,7 +12,10 @@ ones are kept, and tried from again, ``escape_rounds`` times. Only the last stub
 get nearest-neighbour edges (the ones before them join it to the portal alone), so a portal
 adds a few vertices to the searches, not a cluster. With ``escape_lazy`` a portal is escaped
 from only once one of its edges failed, or when a search before the first solution found no
-path (all portals not escaped from yet).
+path (all portals not escaped from yet). A portal escaped from also gets its retreat chains
+(``cartesian_steps``, :mod:`tmpc.runtime.planners.retreat`): the hand straight up, back, or
+both, in steps of ``cartesian_step`` metres, the way out of a grasp that random stubs rarely
+find (a disc lifted off its rod); their vertices are in ``retreat_vertices``.
 """
 
 from __future__ import annotations
