@@ -4,19 +4,31 @@ from __future__ import annotations
 
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 #: temporary files of atomic writes under way (removed by an interrupt, tmpc.runtime.interrupts)
 _IN_FLIGHT: set[str] = set()
+#: guards making a temporary file and listing it, against :func:`remove_in_flight`
+_LOCK = threading.Lock()
+_STOPPING = [False]
+
+
+class StoppingError(OSError):
+    """The process is stopping: no new temporary file is made."""
 
 
 def remove_in_flight() -> None:
-    """Remove the temporary files of the atomic writes under way (the process is stopping)."""
-    for tmp in list(_IN_FLIGHT):
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
+    """Remove the temporary files of the atomic writes under way (the process is stopping);
+    from then on no thread makes a new one (a kernel export finishing on another thread would
+    otherwise leave its file between this call and the exit)."""
+    with _LOCK:
+        _STOPPING[0] = True
+        for tmp in list(_IN_FLIGHT):
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
@@ -25,8 +37,12 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     File permissions of an existing ``path`` are kept.
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    _IN_FLIGHT.add(tmp)
+    with _LOCK:
+        if _STOPPING[0]:
+            raise StoppingError(f"not writing {path}: the process is stopping")
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+                                   dir=path.parent or ".")
+        _IN_FLIGHT.add(tmp)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
