@@ -110,4 +110,4 @@ def retreat_chains(problem: PlanningProblem, items: list[tuple[Mode, np.ndarray]
 
 def best_retreat(chains: list[list[np.ndarray]]) -> list[np.ndarray]:
     """The longest of a configuration's chains (the first of equal length), or none."""
-    return max(chains, key=len, default=[]) if chains else []
+    return max(chains, key=len, default=[])

@@ -45,15 +45,9 @@ class Escapes:
         self._hands: list[int] | None = None
         #: the vertices of retreat chains (the others are random stubs)
         self.retreat_vertices: set[int] = set()
-        #: portals whose retreat chains are due (``retreat_eager``)
-        self.retreat_due: list[int] = []
-        self.retreated: set[int] = set()
 
     def new_portal(self, v: int) -> None:
-        """Vertex ``v`` is a new portal: due at once, or (``escape_lazy``) waiting; its retreat
-        chains are due at once with ``retreat_eager``."""
-        if self.opt.retreat_eager and self.opt.cartesian_steps:
-            self.retreat_due.append(v)
+        """Vertex ``v`` is a new portal: due at once, or (``escape_lazy``) waiting."""
         if self.opt.escape_lazy:
             self.waiting.add(v)
         else:
@@ -81,10 +75,7 @@ class Escapes:
         opt, p, G = self.opt, self.p, self.graph
         made, parents = [], set()
         if opt.cartesian_steps:
-            chains = [v for v in dict.fromkeys(self.retreat_due + todo) if v not in self.retreated]
-            self.retreat_due = []
-            self.retreated.update(chains)
-            made += self.cartesian(chains, parents)
+            made += self.cartesian(todo, parents)
         if not todo or opt.escape_tries <= 0:
             self._list(made, parents)
             return

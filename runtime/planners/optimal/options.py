@@ -41,8 +41,6 @@ class OptimalOptions:
     #: ``cartesian_step`` metres out of each portal escaped from (tmpc's; 0: off)
     cartesian_steps: int = 8
     cartesian_step: float = 0.025
-    #: retreat chains out of every new portal at once (not only once one of its edges failed)
-    retreat_eager: bool = False
     #: escape only out of portals one of whose edges failed (at the next sampling, or at once
     #: when a search before the first solution found no path)
     escape_lazy: bool = True
