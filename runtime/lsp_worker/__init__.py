@@ -12,6 +12,7 @@ on first access (PEP 562 ``__getattr__`` below), so the worker answers ``ping`` 
 imported.
 """
 
+from tmpc.runtime.lazy import lazy_getattr
 from tmpc.runtime.lsp_worker.protocol import METHODS as METHODS
 from tmpc.runtime.lsp_worker.protocol import main as main
 from tmpc.runtime.lsp_worker.protocol import respond as respond
@@ -24,12 +25,7 @@ _LAZY = {name: "tmpc.runtime.lsp_worker.work" for name in
           "MAX_GROUNDINGS")}
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _LAZY)
 
 
 __all__ = ["METHODS", "main", "respond", "serve", "diagnostic_to_json", *_LAZY]

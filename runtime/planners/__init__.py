@@ -21,6 +21,7 @@ from importlib.metadata import entry_points
 from typing import Callable, Mapping
 
 from tmpc.lang.diagnostics import InputError, error
+from tmpc.runtime.lazy import lazy_getattr
 from tmpc.runtime.planners.engines import ENGINES as ENGINES
 from tmpc.runtime.planners.engines import EngineResult as EngineResult
 from tmpc.runtime.planners.engines import EngineSpec as EngineSpec
@@ -147,12 +148,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _LAZY)
 
 
 __all__ = ["PLANNERS", "PlannerSpec", "ENTRY_POINT_GROUP", "load_entry_points", "ENGINES", "EngineSpec", "EngineResult", "Limits",

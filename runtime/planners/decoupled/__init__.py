@@ -21,6 +21,8 @@ numpy and the planner load on first use of the names below (PEP 562 ``__getattr_
 
 from __future__ import annotations
 
+from tmpc.runtime.lazy import lazy_getattr
+
 #: OMPL's geometric planners the Python bindings expose that plan one motion between two
 #: states with nothing but tmpc's checks (``ompl:NAME``), and tmpc's own lazy PRM (``tmpc``)
 OMPL_NAMES = ("AORRTC", "BFMT", "BITstar", "BKPIECE1", "FMT", "InformedRRTstar", "KPIECE1",
@@ -48,12 +50,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _LAZY)
 
 
 __all__ = ["OMPL_NAMES", "MOTION_PLANNERS", "DEFAULT_MOTION_PLANNER", "SIMPLIFIERS",
