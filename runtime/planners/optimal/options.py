@@ -66,6 +66,11 @@ class OptimalOptions:
     #: with ``first_solution``: seconds the task planner may spend on one horizon before it
     #: tries the next (a plan, not a proof that none is shorter; tmpc's; None: off)
     horizon_cap: float | None = 1.0
+    #: the task planner: ``sat`` (the shortest plan consistent with what was learnt), or
+    #: ``greedy`` (greedy best-first search, a plan soon; with ``first_solution`` it asks the
+    #: SAT planner for a shorter plan while that answers in time:
+    #: :mod:`tmpc.runtime.planners.greedy`); ``auto``: greedy to a first solution, else sat
+    task_planner: str = "auto"
     until_converged: bool = False
     converged_solutions: int = 10
     converged_ratio: float = 0.10

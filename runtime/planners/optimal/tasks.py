@@ -21,8 +21,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tmpc.runtime.planners.optimal.options import OptimalOptions
+from tmpc.runtime.planners.greedy import PortfolioTaskPlanner
 from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
 from tmpc.runtime.problem import Mode, PlanningProblem
+
+
+#: collided attempts a transition keeps for its blockers
+KEEP_COLLIDED = 4
 
 
 @dataclass(eq=False)
@@ -39,6 +44,9 @@ class Transition:
     best_fail: tuple | None = None
     #: successes per source mode
     by_mode: dict = field(default_factory=dict)
+    #: the last few attempts where the precondition held but the configuration collided,
+    #: ``(mode, q)``: what blocked it (:meth:`TaskPlans.blockers`)
+    collided: list = field(default_factory=list)
 
     def count(self, mode_id: int) -> None:
         """One more success, from mode ``mode_id``."""
@@ -50,6 +58,9 @@ class Transition:
         failed it); the best one (smallest distance, the precondition false) is kept for the
         blocker evidence :meth:`TaskPlans.learn` derives."""
         self.failures += 1
+        if self.action is not None and held:
+            self.collided.append((mode, np.array(q)))
+            del self.collided[:-KEEP_COLLIDED]
         if self.action is not None and not held and (self.best_fail is None
                                                      or distance < self.best_fail[0]):
             self.best_fail = (distance, mode, q)
@@ -68,11 +79,19 @@ class TaskPlans:
         self.plan: list | None = None
         self.plan_transitions: list[Transition] = []
         self.exhausted = False
+        self.movable: set[str] | None = None
 
     def task_planner(self) -> TaskPlanner:
-        """The SAT task planner, built on first use (or by the run's warm-up)."""
+        """The task planner ``task_planner`` names (``auto``: the greedy-then-SAT portfolio to
+        a first solution, else SAT), built on first use (or by the run's warm-up)."""
         if self.tp is None:
-            self.tp = TaskPlanner(self.p.ground, geometric=True)
+            kind = self.opt.task_planner
+            if kind == "auto":
+                kind = "greedy" if self.opt.first_solution else "sat"
+            if kind == "greedy":
+                self.tp = PortfolioTaskPlanner(self.p.ground)
+            else:
+                self.tp = TaskPlanner(self.p.ground, geometric=True)
         return self.tp
 
     def next_plan(self, deadline: float) -> bool:
@@ -129,8 +148,39 @@ class TaskPlans:
             for lit, value in lits:
                 if self.tp.add_evidence(plan[:i], lit, value):
                     self.counts["evidence"] += 1
+            if not tr.successes and getattr(self.tp, "takes_blockers", False):
+                # the precondition held but every such configuration collided with movable
+                # objects: the literals stay false until one of those moves
+                blockers = self.blockers(tr)
+                if blockers:
+                    for lit in tr.action.pre_geometric:
+                        if self.tp.add_evidence(plan[:i], lit, False, blockers):
+                            self.counts["blockers"] = self.counts.get("blockers", 0) + 1
         self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
         self.plan = None
+
+    def blockers(self, tr: Transition) -> list[str]:
+        """The movable objects (ones some action links) that ``tr``'s collided attempts hit,
+        the action's own arguments and what the robot holds excepted; empty if any of those
+        attempts also hit something that never moves (then moving objects may not help)."""
+        if self.movable is None:
+            self.movable = {ke.child.lower() for a in self.p.ground.actions
+                            for ke in list(a.kinematic) +
+                            [x for ce in a.conditional for x in ce.kinematic]}
+        out: set[str] = set()
+        own = {x.lower() for x in tr.action.args}
+        for mode, q in tr.collided:
+            held = {h.lower() for h in (mode.held or {})}
+            rep = self.p.collision.check(q, poses=mode.poses, attached=mode.held)
+            hit = set()
+            for a, b, _ in rep.pairs:
+                for x in (a.lower(), b.lower()):
+                    if x in self.movable and x not in own and x not in held:
+                        hit.add(x)
+            if not hit:
+                return []
+            out |= hit
+        return sorted(out)
 
     def false_literals(self, tr: Transition) -> list:
         """The geometric literals of ``tr``'s action that are false at its best failed

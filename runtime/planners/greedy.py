@@ -1,0 +1,361 @@
+"""Greedy best-first task planning under the TMP planners' constraints, and the portfolio that
+puts it in front of the SAT planner for first solutions.
+
+The SAT planner (:class:`~tmpc.runtime.planners.taskplan.TaskPlanner`) gives the *shortest* plan
+consistent with what sampling taught, but a long horizon over many objects can take Z3 seconds
+to minutes to decide, and its first check at a horizon spends most of that in preprocessing that
+neither its timeout nor an interrupt stops (Sort Clutter pb7: 28 steps, 12 s for a check capped
+at 1 s; docs/planning.md). A first solution needs *a* plan, soon.
+
+:class:`GreedyTaskPlanner` answers the same three calls (``next_plan``, ``exclude_prefix``,
+``add_evidence``) by greedy best-first search on h_FF
+(:class:`~tmpc.runtime.planners.heuristic.FFHeuristic`, geometry possibly true), with exactly the
+SAT encoding's meaning of the constraints (:mod:`tmpc.compiler.smt.encode`):
+
+* an excluded prefix ``a^1..a^n``: no plan starts with it;
+* evidence: after the prefix ``a^1..a^n``, the geometric literal ``m`` (a use: predicate,
+  arguments, polarity) is known to be ``value``. The knowledge carries over the following steps
+  until one of them may change it (an action with a kinematic effect); a use of a literal known
+  false fails, every other use is optimistically possible.
+
+Both constraints hang on a trie of prefixes. A search node is the symbolic state, the trie node
+its path still follows (None once it left every constrained prefix) and the literal values it
+knows; nodes are deduplicated on all three, so the search is complete: ``exhausted`` means no
+plan of at most ``max_steps`` steps satisfies the constraints.
+
+:class:`PortfolioTaskPlanner` (the TMP planners' choice for first solutions) asks the greedy
+search first. When the plan is longer than the SAT planner's proven lower bound, the SAT planner
+tries the shorter horizons (each capped as ``horizon_cap`` says) and a shorter plan wins; once a
+SAT check overran its cap by more than ``stall`` seconds, the portfolio stops asking it (its
+checks no longer answer in time on this problem). Both planners receive every constraint, so
+either answer satisfies all of them.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from typing import Iterable
+
+from tmpc.compiler.ground import (GAnd, GAtom, GGeo, GNot, GOr, GroundAction, GroundProblem,
+                                  GTrue)
+from tmpc.runtime.planners.heuristic import FFHeuristic
+from tmpc.runtime.planners.taskplan import (EXHAUSTED, SOLVED, TIMEOUT, UNREACHABLE,
+                                            PlanResult, TaskPlanner)
+
+#: a literal use: (predicate, args, positive), names lower-cased
+Use = tuple[str, tuple[str, ...], bool]
+
+
+def _use(literal) -> Use:
+    pred, args, positive = literal
+    return pred.lower(), tuple(a.lower() for a in args), bool(positive)
+
+
+def _holds(f, state: int, known: dict) -> bool:
+    """``f`` in ``state``; a geometric literal is false only where ``known`` says so."""
+    t = type(f)
+    if t is GAtom:
+        return (state >> f.id) & 1 == 1
+    if t is GAnd:
+        return all(_holds(p, state, known) for p in f.parts)
+    if t is GOr:
+        return any(_holds(p, state, known) for p in f.parts)
+    if t is GNot:
+        if type(f.part) is GAtom:
+            return not (state >> f.part.id) & 1
+        return known.get(_use((f.part.predicate, f.part.args, False)), True)
+    if t is GGeo:
+        return known.get(_use((f.predicate, f.args, True)), True)
+    return t is GTrue
+
+
+def _uses(f, out: set) -> None:
+    """The geometric literal uses of ``f`` into ``out``."""
+    t = type(f)
+    if t in (GAnd, GOr):
+        for p in f.parts:
+            _uses(p, out)
+    elif t is GNot and type(f.part) is GGeo:
+        out.add(_use((f.part.predicate, f.part.args, False)))
+    elif t is GGeo:
+        out.add(_use((f.predicate, f.args, True)))
+
+
+class _Prefix:
+    """A node of the trie of constrained prefixes."""
+
+    __slots__ = ("children", "excluded", "evidence")
+
+    def __init__(self) -> None:
+        self.children: dict[int, _Prefix] = {}
+        self.excluded = False
+        #: use -> (value, the ids of the actions that may change it; None: every kinematic one)
+        self.evidence: dict[Use, tuple[bool, frozenset | None]] = {}
+
+
+class GreedyTaskPlanner:
+    """Plans of a ground problem by greedy best-first search on h_FF, under excluded prefixes
+    and geometric evidence (see the module docstring). ``next_plan`` has the SAT planner's
+    signature; ``horizon_cap`` is accepted and ignored (there are no horizons)."""
+
+    takes_blockers = True               # :meth:`add_evidence` takes ``blockers``
+
+    def __init__(self, problem: GroundProblem, heuristic: FFHeuristic | None = None):
+        self.problem = problem
+        self.h = heuristic or FFHeuristic(problem)
+        self.root = _Prefix()
+        self.changers = frozenset(a.id for a in problem.actions
+                                  if a.kinematic or any(ce.kinematic for ce in a.conditional))
+        used: set[Use] = set()
+        for a in problem.actions:
+            _uses(a.precondition, used)
+        _uses(problem.goal.formula, used)
+        self.used = frozenset(used)
+        self.geometric = bool(used)
+        #: per action, the bit mask of the objects its kinematic effects move
+        names: dict[str, int] = {}
+        self.moves: list[int] = []
+        for a in problem.actions:
+            m = 0
+            for ke in list(a.kinematic) + [k for ce in a.conditional for k in ce.kinematic]:
+                m |= 1 << names.setdefault(ke.child.lower(), len(names))
+            self.moves.append(m)
+        self.object_bit = names
+        #: blocker rules: use -> [mask of objects]; the use is false while none of them moved
+        self.rules: dict[Use, list[int]] = {}
+        self.rule_mask = 0
+        self.expansions = 0
+        self.seconds = 0.0
+
+    # ---- constraints ----------------------------------------------------------------------
+    def _node(self, prefix: Iterable[GroundAction]) -> _Prefix:
+        node = self.root
+        for a in prefix:
+            node = node.children.setdefault(a.id, _Prefix())
+        return node
+
+    def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
+        """No later plan starts with ``prefix`` (the empty prefix: no plan at all)."""
+        self._node(prefix).excluded = True
+
+    def add_evidence(self, prefix: Iterable[GroundAction], literal, value: bool,
+                     blockers: Iterable[str] | None = None) -> bool:
+        """After ``prefix``, the geometric ``literal`` is known to be ``value``; False (and
+        nothing added) if no precondition or goal uses it. ``blockers`` (objects; with
+        ``value`` False): the literal is false *because of* them, so it stays false until an
+        action moves one of them (not merely until any kinematic action). If none of them
+        moved in ``prefix``, that holds in every plan: the literal is false wherever none of
+        them has moved yet (a blocker rule, whatever came before)."""
+        use = _use(literal)
+        if use not in self.used:
+            return False
+        prefix = list(prefix)
+        if blockers is not None and not value:
+            mask = 0
+            for b in blockers:
+                bit = self.object_bit.get(b.lower())
+                if bit is not None:
+                    mask |= 1 << bit
+            if mask:
+                moved = 0
+                for a in prefix:
+                    moved |= self.moves[a.id]
+                if not moved & mask:
+                    rules = self.rules.setdefault(use, [])
+                    if mask not in rules:
+                        rules.append(mask)
+                        self.rule_mask |= mask
+                    return True
+                movers = frozenset(a.id for a in self.problem.actions
+                                   if self.moves[a.id] & mask)
+                self._node(prefix).evidence[use] = (False, movers)
+                return True
+        self._node(prefix).evidence[use] = (bool(value), None)
+        return True
+
+    def _known(self, known: dict, moved: int) -> dict:
+        """The literal values a node knows: its evidence, and the blocker rules whose
+        blockers have not moved (evidence from the node's own prefix wins)."""
+        out = {u: v for u, (v, _) in known.items()} if known else {}
+        for use, masks in self.rules.items():
+            if use not in out and any(not moved & m for m in masks):
+                out[use] = False
+        return out
+
+    def satisfies(self, plan: list[GroundAction]) -> bool:
+        """Does ``plan`` (applicable in the discrete view) keep every constraint: no excluded
+        prefix, no use of a literal known false, the goal not known false at its end?"""
+        p = self.problem
+        state, trie, known, moved = p.init, self.root, dict(self.root.evidence), 0
+        if trie.excluded:
+            return False
+        for a in plan:
+            values = self._known(known, moved)
+            if values and not _holds(a.precondition, state, values):
+                return False
+            trie = trie.children.get(a.id) if trie is not None else None
+            if trie is not None and trie.excluded:
+                return False
+            state, known = p.apply(state, a), self._step(known, a)
+            moved |= self.moves[a.id]
+            if trie is not None and trie.evidence:
+                known = {**known, **trie.evidence}
+        values = self._known(known, moved)
+        return not values or _holds(p.goal.formula, state, values)
+
+    def _step(self, known: dict, a: GroundAction) -> dict:
+        """``known`` after action ``a``: what ``a`` may change is forgotten."""
+        if not known:
+            return known
+        kin = a.id in self.changers
+        return {u: (v, m) for u, (v, m) in known.items()
+                if not (a.id in m if m is not None else kin)}
+
+    # ---- search -----------------------------------------------------------------------------
+    def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
+                  min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
+        """A plan of ``min_steps..max_steps`` steps satisfying every constraint, found greedily
+        (not the shortest); ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
+        t0 = time.perf_counter()
+        deadline = math.inf if time_limit is None else t0 + time_limit
+        p = self.problem
+
+        def result(status: str, plan=None) -> PlanResult:
+            self.seconds += time.perf_counter() - t0
+            return PlanResult(status, plan, len(plan) if plan else 0,
+                              seconds=time.perf_counter() - t0)
+
+        if not p.goal_relaxed_reachable:
+            return result(UNREACHABLE)
+        if self.root.excluded:
+            return result(EXHAUSTED)
+        actions = p.actions
+        # per node: (state, trie node, evidence known, moved objects, parent, action id, depth)
+        nodes: list[tuple] = []
+        seen: set = set()
+        heap: list = []
+        relevant = self.rule_mask
+
+        def push(state: int, trie, known: dict, moved: int, parent: int, aid: int,
+                 depth: int) -> bool:
+            """Add a node unless seen; True if it is a goal."""
+            key = (state, id(trie) if trie is not None else 0,
+                   frozenset(known.items()) if known else None, moved & relevant)
+            if key in seen:
+                return False
+            seen.add(key)
+            node = (state, trie, known, moved, parent, aid, depth)
+            if depth >= min_steps and _holds(p.goal.formula, state, self._known(known, moved)):
+                nodes.append(node)
+                return True
+            h = self.h.h(state)
+            if h == math.inf or depth >= max_steps:
+                return False
+            nodes.append(node)
+            heapq.heappush(heap, (h, depth, len(nodes) - 1))
+            return False
+
+        if push(p.init, self.root, dict(self.root.evidence), 0, -1, -1, 0):
+            return result(SOLVED, [])
+        while heap:
+            if self.expansions % 64 == 0 and time.perf_counter() >= deadline:
+                return result(TIMEOUT)
+            self.expansions += 1
+            _, depth, i = heapq.heappop(heap)
+            state, trie, known, moved, _, _, _ = nodes[i]
+            values = self._known(known, moved)
+            for a in actions:
+                if not a.pre.holds(state) or (values and
+                                              not _holds(a.precondition, state, values)):
+                    continue
+                child = trie.children.get(a.id) if trie is not None else None
+                if child is not None and child.excluded:
+                    continue
+                nxt = p.apply(state, a)
+                k = self._step(known, a)
+                if child is not None and child.evidence:
+                    k = {**k, **child.evidence}
+                if push(nxt, child, k, moved | self.moves[a.id], i, a.id, depth + 1):
+                    return result(SOLVED, self._path(nodes))
+        return result(EXHAUSTED)
+
+    def _path(self, nodes: list) -> list[GroundAction]:
+        out = []
+        i = len(nodes) - 1
+        while nodes[i][4] >= 0:
+            out.append(self.problem.actions[nodes[i][5]])
+            i = nodes[i][4]
+        return out[::-1]
+
+    plan = next_plan
+
+
+class PortfolioTaskPlanner:
+    """The greedy planner first, the SAT planner for a shorter plan while its checks answer in
+    time (see the module docstring). Every constraint goes to both."""
+
+    def __init__(self, problem: GroundProblem, stall: float = 2.0):
+        self.problem = problem
+        self.sat = TaskPlanner(problem, geometric=True)
+        self.greedy = GreedyTaskPlanner(problem)
+        self.stall = stall
+        self.sat_stalled = False
+        #: the planners whose plans were taken, by name
+        self.answers = {"greedy": 0, "sat": 0}
+
+    @property
+    def lower_bound(self) -> int | None:
+        return self.sat.lower_bound
+
+    @property
+    def stats(self) -> list:
+        return self.sat.stats
+
+    def impossible_below(self) -> int:
+        return self.sat.impossible_below()
+
+    def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
+        prefix = list(prefix)
+        self.sat.exclude_prefix(prefix)
+        self.greedy.exclude_prefix(prefix)
+
+    #: :meth:`add_evidence` takes ``blockers`` (the SAT planner's copy keeps the evidence
+    #: at its prefix only; a shorter SAT plan is taken only if it keeps the greedy planner's
+    #: constraints, :meth:`GreedyTaskPlanner.satisfies`)
+    takes_blockers = True
+
+    def add_evidence(self, prefix: Iterable[GroundAction], literal, value: bool,
+                     blockers: Iterable[str] | None = None) -> bool:
+        prefix = list(prefix)
+        used = self.sat.add_evidence(prefix, literal, value)
+        self.greedy.add_evidence(prefix, literal, value, blockers)
+        return used
+
+    def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
+                  min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
+        t0 = time.perf_counter()
+        res = self.greedy.next_plan(max_steps, time_limit, min_steps)
+        if res.status != SOLVED:
+            return res
+        bound = self.sat.impossible_below()
+        if self.sat_stalled or len(res.actions) <= max(bound, min_steps):
+            self.answers["greedy"] += 1
+            return res
+        left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
+        before = len(self.sat.stats)
+        short = self.sat.next_plan(len(res.actions) - 1, left, min_steps, horizon_cap)
+        cap = horizon_cap if horizon_cap is not None else math.inf
+        if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
+            self.sat_stalled = True
+        if short.status == SOLVED and self.greedy.satisfies(short.actions):
+            self.answers["sat"] += 1
+            return short
+        self.answers["greedy"] += 1
+        return res
+
+    plan = next_plan
+
+
+__all__ = ["GreedyTaskPlanner", "PortfolioTaskPlanner"]

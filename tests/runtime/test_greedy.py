@@ -1,0 +1,181 @@
+"""The greedy task planner and the portfolio (runtime/planners/greedy.py): plans replay, a
+problem without a plan is reported exhausted (against breadth-first search), the constraints
+mean what they mean to the SAT planner (the same problems solvable under the same random
+constraints, and no greedy plan shorter than the SAT planner's shortest), and blocker rules."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from tests.compiler.test_smt import ARM, _ground, _random_domain, bfs_length
+from tmpc.compiler.ground import GeoLiteral
+from tmpc.runtime.planners.greedy import GreedyTaskPlanner, PortfolioTaskPlanner
+from tmpc.runtime.planners.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
+
+
+def _arm(goal: str, sticks: str = "x"):
+    return _ground(ARM, f"""(define (problem p) (:domain arm)
+      (:objects {sticks} - stick t1 t2 - surface m - manipulator)
+      (:init {' '.join(f'(on {s} t1)' for s in sticks.split())} (free m))
+      (:goal (and {goal})))""")
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_random_problems_replay_or_have_no_plan(seed):
+    rng = random.Random(seed)
+    dom = _random_domain(rng)
+    init = " ".join(f"(f{i})" for i in range(5) if rng.random() < 0.4)
+    goal = rng.choice(["(g)", "(and (f4) (not (f0)))", "(or (f3) (and (g) (f4)))",
+                       "(and (f1) (f2) (f3))"])
+    gp = _ground(dom, f"(define (problem p) (:domain rnd) (:init {init}) (:goal {goal}))")
+    optimum = bfs_length(gp)
+    result = GreedyTaskPlanner(gp).next_plan(max_steps=12)
+    if optimum is None:
+        assert result.status in (EXHAUSTED, UNREACHABLE)
+    else:
+        assert result.status == SOLVED
+        assert simulate(gp, result.actions)[0]
+        assert len(result.actions) >= optimum
+
+
+def _random_constraints(rng: random.Random, gp, planners, n: int) -> None:
+    """``n`` random exclusions and evidence (prefixes of applicable actions) to every planner."""
+    lits = [GeoLiteral("at", ("m", s), True) for s in ("x", "y")] + \
+        [GeoLiteral("above", ("m", t), True) for t in ("t1", "t2")]
+    for _ in range(n):
+        state, prefix = gp.init, []
+        for _ in range(rng.randint(0, 3)):
+            moves = [a for a, _ in gp.successors(state)]
+            if not moves:
+                break
+            a = rng.choice(moves)
+            prefix.append(a)
+            state = gp.apply(state, a)
+        if rng.random() < 0.3:
+            for pl in planners:
+                pl.exclude_prefix(prefix)
+        else:
+            lit, value = rng.choice(lits), rng.random() < 0.3
+            for pl in planners:
+                pl.add_evidence(prefix, lit, value)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_constraints_mean_what_they_mean_to_the_sat_planner(seed):
+    rng = random.Random(seed)
+    gp = _arm("(on x t2) (on y t2)" if seed % 2 else "(on x t2)", "x y")
+    sat, greedy = TaskPlanner(gp, geometric=True), GreedyTaskPlanner(gp)
+    _random_constraints(rng, gp, (sat, greedy), rng.randint(1, 8))
+    a, b = sat.next_plan(max_steps=10), greedy.next_plan(max_steps=10)
+    assert (a.status == SOLVED) == (b.status == SOLVED), (a.status, b.status)
+    if b.status == SOLVED:
+        assert simulate(gp, b.actions)[0]
+        assert greedy.satisfies(b.actions)
+        assert len(b.actions) >= len(a.actions)
+        # the greedy plan keeps the SAT planner's constraints, so that planner has a plan of
+        # its length too
+        assert sat.next_plan(min_steps=len(b.actions), max_steps=len(b.actions)).solved
+
+
+def test_exclusion_and_evidence_in_the_greedy_planner():
+    gp = _arm("(on x t2)")
+    pick = gp.find_action("pick", "x", "t1", "m")
+    g = GreedyTaskPlanner(gp)
+    r = g.next_plan(max_steps=6)
+    assert r.solved and [a.schema for a in r.actions] == ["pick", "place"]
+    g.exclude_prefix([pick])
+    r = g.next_plan(max_steps=6)                  # no plan starts with pick: switch first
+    assert [a.schema for a in r.actions] == ["switch", "pick", "place"]
+    g.exclude_prefix(r.actions[:1])
+    assert g.next_plan(max_steps=6).status == EXHAUSTED
+    g = GreedyTaskPlanner(gp)
+    assert g.add_evidence([], ("AT", ("M", "X"), True), False)   # names compare without case
+    assert g.next_plan(max_steps=6).status == EXHAUSTED      # switch does not move anything
+    assert not g.add_evidence([], GeoLiteral("above", ("m", "t1"), False), True)   # unused
+    g.exclude_prefix([])
+    assert g.next_plan().status == EXHAUSTED
+
+
+def test_a_blocker_rule_holds_in_every_plan_until_its_blocker_moves():
+    gp = _arm("(on x t2)", "x y z")
+    at_x = GeoLiteral("at", ("m", "x"), True)
+    g = GreedyTaskPlanner(gp)
+    # x's grasp failed in the initial state, colliding with y: false until y moves, whatever
+    # comes first (moving z first does not help, unlike the SAT planner's evidence)
+    assert g.add_evidence([], at_x, False, blockers=["y"])
+    r = g.next_plan(max_steps=10)
+    assert r.solved and simulate(gp, r.actions)[0]
+    names = [(a.schema, a.args[0]) for a in r.actions]
+    assert names.index(("pick", "y")) < names.index(("pick", "x"))
+    pick = {s: gp.find_action("pick", s, "t1", "m") for s in "xyz"}
+    place = {s: gp.find_action("place", s, "t2", "m") for s in "xyz"}
+    assert not g.satisfies([pick["z"], place["z"], pick["x"], place["x"]])
+    assert g.satisfies([pick["y"], place["y"], pick["x"], place["x"]])
+    sat = TaskPlanner(gp, geometric=True)
+    sat.add_evidence([], at_x, False)
+    assert len(sat.next_plan(max_steps=10).actions) == 4       # z first: weaker
+    # blockers that moved in the prefix: the evidence stays at that prefix, until they move
+    g = GreedyTaskPlanner(gp)
+    g.add_evidence([pick["y"], place["y"]], at_x, False, blockers=["y"])
+    assert not g.satisfies([pick["y"], place["y"], pick["z"], place["z"], pick["x"],
+                            place["x"]])
+    assert g.satisfies([pick["z"], place["z"], pick["x"], place["x"]])
+    # ... and moving y again there makes x's grasp unknown again
+    assert g.satisfies([pick["y"], place["y"], gp.find_action("pick", "y", "t2", "m"),
+                        gp.find_action("place", "y", "t1", "m"), pick["x"], place["x"]])
+
+
+def test_the_portfolio_keeps_shortest_plans_and_the_greedy_constraints():
+    gp = _arm("(on x t2) (on y t2)", "x y z")
+    pf = PortfolioTaskPlanner(gp)
+    r = pf.next_plan(max_steps=10, horizon_cap=1.0)
+    assert r.solved and len(r.actions) == 4 == pf.sat.impossible_below()
+    pick_x = gp.find_action("pick", "x", "t1", "m")
+    pf.add_evidence([], GeoLiteral("at", ("m", "x"), True), False, blockers=["z"])
+    r = pf.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and pf.greedy.satisfies(r.actions)
+    names = [(a.schema, a.args[0]) for a in r.actions]
+    assert names.index(("pick", "z")) < names.index(("pick", "x"))
+    assert r.actions[0] is not pick_x
+
+
+def test_blockers_are_the_movable_objects_a_collided_attempt_hit(tabletop_world):
+    """TaskPlans.blockers on the tabletop (a Panda, two cubes): a configuration that hits the
+    blue cube makes the blue cube the red cube's blocker; the action's own object, and a
+    configuration hitting only what never moves, are no blockers."""
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import TaskPlans, Transition
+    from tmpc.runtime.problem import PlanningProblem
+
+    p = PlanningProblem(tabletop_world)
+    mode = p.initial
+    rng = np.random.default_rng(0)
+    hits: dict[frozenset, np.ndarray] = {}
+    for q in p.uniform(rng, 3000):
+        names = frozenset(x for a, b, _ in p.collision.check(q, poses=mode.poses,
+                                                            attached=mode.held).pairs
+                          for x in (a, b))
+        if "blue_cube" in names and "red_cube" not in names:
+            hits.setdefault("blue", q)
+        if names and not names & {"blue_cube", "red_cube"}:
+            hits.setdefault("static", q)
+        if len(hits) == 2:
+            break
+    assert set(hits) == {"blue", "static"}, "no such configurations among the samples"
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    gp = p.ground
+    pick_red = next(a for a in gp.actions if a.kinematic and "red_cube" in a.args)
+    pick_blue = next(a for a in gp.actions if a.kinematic and "blue_cube" in a.args
+                     and a.schema == pick_red.schema)
+    tr = Transition(gp.init, pick_red, gp.init)
+    tr.record_failure(mode, hits["blue"], True, 0.0)
+    assert tasks.blockers(tr) == ["blue_cube"]
+    tr.record_failure(mode, hits["static"], True, 0.0)        # ... and one that hit the bench
+    assert tasks.blockers(tr) == []
+    own = Transition(gp.init, pick_blue, gp.init)
+    own.record_failure(mode, hits["blue"], True, 0.0)
+    assert tasks.blockers(own) == []
