@@ -47,7 +47,9 @@ class DecoupledOptions:
     motion_planner: str = DEFAULT_MOTION_PLANNER
     motion_budget: float = 2.0         # seconds per motion
     samples: int = 4                   # transition configurations tried per step
-    plan_budget: int = 40              # motions tried per task plan before the next one
+    plan_budget: int = 40              # motions tried per task plan before the next one,
+    plan_budget_per_step: int = 3      # ... or this many per step of a longer plan
+    sample_rounds: int = 3             # rounds of projections before a step counts as failed
     projection_iterations: int = 30    # as the optimal planner's
     resolution: float = 0.05           # motion-check resolution (the validator's default)
     shortcut: bool = True              # tmpc's shortcuts on the plan (off: --simplify ompl)
@@ -74,7 +76,7 @@ class DecoupledPlanner:
         self.shortcut_rng = np.random.default_rng([seed, 1])
         self.counts = {"task_plans": 0, "evidence": 0, "transition_samples": 0,
                        "transition_failures": 0, "transitions": 0, "motions": 0,
-                       "motion_failures": 0, "backtracks": 0, "task_restarts": 0}
+                       "motion_failures": 0, "backtracks": 0, "task_restarts": 0, "deepest_step": 0}
         self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
                                                        max_steps=options.max_steps,
                                                        first_solution=True),
@@ -83,6 +85,7 @@ class DecoupledPlanner:
         self.hands: list[int] | None = None
         self.mode_count = 1
         self.motion_seconds = 0.0
+        self.plan_depth = 0              # the deepest step the last plan followed reached
 
     @classmethod
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
@@ -150,6 +153,7 @@ class DecoupledPlanner:
                         sym = p.ground.apply(sym, a)
                     steps.append((None, self.tasks.transition(sym, None, sym)))
                 found = self.follow(steps, deadline)
+                self.counts["deepest_step"] = max(self.counts["deepest_step"], self.plan_depth)
                 if progress is not None:
                     progress(self)
                 if found is not None:
@@ -174,12 +178,14 @@ class DecoupledPlanner:
         """The plan ``steps`` (``(action, transition)``; action None: the goal) made geometric
         depth first; the path of ``(q, mode, action)`` states, or None."""
         p = self.p
-        budget = [self.opt.plan_budget]
+        budget = [max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))]
+        self.plan_depth = 0
         # per depth: (q, mode, path so far, samples left to try)
         stack = [(p.q0.copy(), p.initial, [], None)]
         while stack and time.perf_counter() < deadline and budget[0] > 0:
             q, mode, path, todo = stack.pop()
             depth = len(stack)
+            self.plan_depth = max(self.plan_depth, depth)
             if depth == len(steps):
                 return path + [(q, mode, None)]
             action, tr = steps[depth]
@@ -231,24 +237,33 @@ class DecoupledPlanner:
         p = self.p
         if action is not None and not p.has_geometry(action):
             return [q.copy()]
-        # the current configuration, 7 starts around it (a tenth of each joint's range) and
-        # 8 uniform ones: nearby transitions first, far ones when those fail
-        near = q + self.rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) \
-            * (p.upper - p.lower)
-        starts = np.vstack([q[None], p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
-        self.counts["transition_samples"] += len(starts)
-        Qp, holds, dist = p.project_raw(mode, action, starts,
-                                        iterations=self.opt.projection_iterations)
-        ok = holds.copy()
-        if ok.any():
-            ok[ok] = p.valid_batch(mode, Qp[ok])
         out = []
-        for qp, h, good, d in zip(Qp, holds, ok, dist):
-            if good:
-                out.append(p.wrap(qp))
-            else:
-                tr.record_failure(mode, qp, bool(h), float(d))
-                self.counts["transition_failures"] += 1
+        for r in range(self.opt.sample_rounds):
+            if r == 0:
+                # the current configuration, 7 starts around it (a tenth of each joint's
+                # range) and 8 uniform ones: nearby transitions first, far ones when those fail
+                near = q + self.rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) \
+                    * (p.upper - p.lower)
+                starts = np.vstack([q[None], p.wrap(near),
+                                    p.uniform(self.rng, PROJECTION_BATCH // 2)])
+            else:                            # none valid: wider, then uniform starts
+                near = q + self.rng.normal(0.0, 0.3, (PROJECTION_BATCH // 2, len(q))) \
+                    * (p.upper - p.lower)
+                starts = np.vstack([p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
+            self.counts["transition_samples"] += len(starts)
+            Qp, holds, dist = p.project_raw(mode, action, starts,
+                                            iterations=self.opt.projection_iterations)
+            ok = holds.copy()
+            if ok.any():
+                ok[ok] = p.valid_batch(mode, Qp[ok])
+            for qp, h, good, d in zip(Qp, holds, ok, dist):
+                if good:
+                    out.append(p.wrap(qp))
+                else:
+                    tr.record_failure(mode, qp, bool(h), float(d))
+                    self.counts["transition_failures"] += 1
+            if out:
+                break
         if out:                              # the nearest first: shorter motions
             out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
         return out[:self.opt.samples]
