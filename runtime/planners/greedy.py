@@ -25,9 +25,10 @@ plan of at most ``max_steps`` steps satisfies the constraints.
 
 :class:`PortfolioTaskPlanner` (the TMP planners' choice for first solutions) asks the greedy
 search first. When the plan is longer than the SAT planner's proven lower bound, the SAT planner
-tries the shorter horizons (each capped as ``horizon_cap`` says) and a shorter plan wins; once a
-SAT check overran its cap by more than ``stall`` seconds, the portfolio stops asking it (its
-checks no longer answer in time on this problem). Both planners receive every constraint, so
+tries the shorter horizons (each capped as ``horizon_cap`` says, ``sat_budget`` seconds in all)
+and a shorter plan wins. It is not asked when those horizons hold more than ``sat_clauses``
+step clauses, nor once a check overran its cap by more than ``stall`` seconds: Z3 no longer
+answers in time on such problems. Both planners receive every constraint, so
 either answer satisfies all of them.
 """
 
@@ -205,6 +206,15 @@ class GreedyTaskPlanner:
         values = self._known(known, moved)
         return not values or _holds(p.goal.formula, state, values)
 
+    def _penalty(self, state: int, values: dict) -> int:
+        """2 (a blocker's pick and place) for each action of the relaxed plan whose
+        precondition is false by what the node knows: h_FF counts geometry as possibly true,
+        and without this the search wanders the plateau of orders that keep a blocker where
+        it is (Sort Clutter: minutes)."""
+        acts = self.problem.actions
+        return 2 * sum(1 for aid in self.h.relaxed_actions(state)
+                       if not _holds(acts[aid].precondition, state, values))
+
     def _step(self, known: dict, a: GroundAction) -> dict:
         """``known`` after action ``a``: what ``a`` may change is forgotten."""
         if not known:
@@ -247,12 +257,15 @@ class GreedyTaskPlanner:
                 return False
             seen.add(key)
             node = (state, trie, known, moved, parent, aid, depth)
-            if depth >= min_steps and _holds(p.goal.formula, state, self._known(known, moved)):
+            values = self._known(known, moved)
+            if depth >= min_steps and _holds(p.goal.formula, state, values):
                 nodes.append(node)
                 return True
             h = self.h.h(state)
             if h == math.inf or depth >= max_steps:
                 return False
+            if values:
+                h += self._penalty(state, values)
             nodes.append(node)
             heapq.heappush(heap, (h, depth, len(nodes) - 1))
             return False
@@ -296,11 +309,18 @@ class PortfolioTaskPlanner:
     """The greedy planner first, the SAT planner for a shorter plan while its checks answer in
     time (see the module docstring). Every constraint goes to both."""
 
-    def __init__(self, problem: GroundProblem, stall: float = 2.0):
+    def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
+                 sat_clauses: int = 200_000):
         self.problem = problem
         self.sat = TaskPlanner(problem, geometric=True)
         self.greedy = GreedyTaskPlanner(problem)
         self.stall = stall
+        self.sat_budget = sat_budget
+        #: no SAT call whose horizons would hold more step clauses than this: Z3's first check
+        #: of a long horizon preprocesses them without heeding its timeout (clutter pb7: 28 x
+        #: 13,529 clauses, 12 s in a check capped at 1 s; blocks-J: 32 x 4,524, 3.6 s to its
+        #: shorter plan)
+        self.sat_clauses = sat_clauses
         self.sat_stalled = False
         #: the planners whose plans were taken, by name
         self.answers = {"greedy": 0, "sat": 0}
@@ -340,10 +360,13 @@ class PortfolioTaskPlanner:
         if res.status != SOLVED:
             return res
         bound = self.sat.impossible_below()
-        if self.sat_stalled or len(res.actions) <= max(bound, min_steps):
+        size = self.sat.encoding.sizes["step"][0] * (len(res.actions) - 1)
+        if self.sat_stalled or len(res.actions) <= max(bound, min_steps) or \
+                size > self.sat_clauses:
             self.answers["greedy"] += 1
             return res
-        left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
+        left = self.sat_budget if time_limit is None else \
+            max(0.0, min(self.sat_budget, time_limit - (time.perf_counter() - t0)))
         before = len(self.sat.stats)
         short = self.sat.next_plan(len(res.actions) - 1, left, min_steps, horizon_cap)
         cap = horizon_cap if horizon_cap is not None else math.inf

@@ -157,7 +157,7 @@ class DecoupledPlanner:
                 if progress is not None:
                     progress(self)
                 if found is not None:
-                    status, path = "solved", self.shortcut(found)
+                    status, path = "solved", self.shortcut(found, deadline)
                     break
         except KeyboardInterrupt:
             status = "interrupted"
@@ -211,17 +211,21 @@ class DecoupledPlanner:
                           None))
         return None
 
-    def shortcut(self, path: list) -> list:
+    def shortcut(self, path: list, deadline: float = math.inf) -> list:
         """The final plan's OMPL motions shortcut by tmpc
         (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, each motion in its mode)
         unless ``shortcut`` is off (``--simplify ompl``) or tmpc planned them (its own
-        planner shortcuts already)."""
+        planner shortcuts already). Segments left at ``deadline`` (the run's time limit)
+        stay as planned."""
         if not self.opt.shortcut or self.opt.motion_planner == "tmpc":
             return path
         t = time.perf_counter()
         out = []
         for seg in mode_segments(path):
             mode = seg[0][1]
+            if time.perf_counter() >= deadline:
+                out.extend(seg)
+                continue
             Q = shortcut(self.p, mode, np.array([q for q, _, _ in seg]), self.shortcut_rng,
                          rounds=self.opt.shortcut_rounds, resolution=self.opt.resolution)
             out.extend((q.copy(), mode, None) for q in Q[:-1])
