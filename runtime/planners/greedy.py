@@ -23,12 +23,16 @@ its path still follows (None once it left every constrained prefix) and the lite
 knows; nodes are deduplicated on all three, so the search is complete: ``exhausted`` means no
 plan of at most ``max_steps`` steps satisfies the constraints.
 
-:class:`PortfolioTaskPlanner` (the TMP planners' choice for first solutions) asks the greedy
-search first. When the plan is longer than the SAT planner's proven lower bound, the SAT planner
-tries the shorter horizons (each capped as ``horizon_cap`` says, ``sat_budget`` seconds in all)
-and a shorter plan wins. It is not asked when those horizons hold more than ``sat_clauses``
-step clauses, nor once a check overran its cap by more than ``stall`` seconds: Z3 no longer
-answers in time on such problems. Both planners receive every constraint, so
+:class:`PortfolioTaskPlanner` (the TMP planners' choice for first solutions) asks the SAT
+planner first while its encoding is small: at most ``sat_clauses`` step clauses up to the
+shortest horizon not yet proven impossible. It gets ``sat_budget`` seconds a call, each horizon
+capped as ``horizon_cap`` says, and its plan is taken if it keeps the greedy planner's
+constraints (which are stronger: blocker rules). Otherwise, or on a timeout, the greedy search
+answers; and only it once a SAT check overran its cap by more than ``stall`` seconds or
+three calls in a row ran out of their budget. On small
+problems the SAT planner's shortest plans are the better guide (Hanoi-3: solved in 46 s from
+SAT's plans, unsolved in 150 s from the greedy planner's plans of the same lengths); on large
+ones Z3's first check of a long horizon preprocesses without heeding its timeout. Both planners receive every constraint, so
 either answer satisfies all of them.
 """
 
@@ -316,12 +320,15 @@ class PortfolioTaskPlanner:
         self.greedy = GreedyTaskPlanner(problem)
         self.stall = stall
         self.sat_budget = sat_budget
-        #: no SAT call whose horizons would hold more step clauses than this: Z3's first check
-        #: of a long horizon preprocesses them without heeding its timeout (clutter pb7: 28 x
-        #: 13,529 clauses, 12 s in a check capped at 1 s; blocks-J: 32 x 4,524, 3.6 s to its
-        #: shorter plan)
+        #: no SAT call when its shortest horizon holds more step clauses than this: Z3's first
+        #: check of a long horizon preprocesses them without heeding its timeout (clutter pb7:
+        #: 28 x 13,529 clauses, 12 s in a check capped at 1 s)
         self.sat_clauses = sat_clauses
         self.sat_stalled = False
+        #: consecutive calls the SAT planner ran out of its budget; at ``max_misses`` it is
+        #: no longer asked
+        self.sat_misses = 0
+        self.max_misses = 3
         #: the planners whose plans were taken, by name
         self.answers = {"greedy": 0, "sat": 0}
 
@@ -355,27 +362,32 @@ class PortfolioTaskPlanner:
 
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
+        """The SAT planner's shortest plan while its encoding is small enough to answer in
+        time (``sat_budget`` seconds, each horizon capped at ``horizon_cap``), if it keeps the
+        greedy planner's constraints; else the greedy planner's plan."""
         t0 = time.perf_counter()
-        res = self.greedy.next_plan(max_steps, time_limit, min_steps)
-        if res.status != SOLVED:
-            return res
-        bound = self.sat.impossible_below()
-        size = self.sat.encoding.sizes["step"][0] * (len(res.actions) - 1)
-        if self.sat_stalled or len(res.actions) <= max(bound, min_steps) or \
-                size > self.sat_clauses:
+        bound = max(self.sat.impossible_below(), min_steps, 1)
+        if not self.sat_stalled and \
+                self.sat.encoding.sizes["step"][0] * bound <= self.sat_clauses:
+            budget = self.sat_budget if time_limit is None else min(self.sat_budget, time_limit)
+            before = len(self.sat.stats)
+            res = self.sat.next_plan(max_steps, budget, min_steps, horizon_cap)
+            cap = horizon_cap if horizon_cap is not None else budget
+            if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
+                self.sat_stalled = True
+            if res.status == SOLVED and self.greedy.satisfies(res.actions):
+                self.answers["sat"] += 1
+                self.sat_misses = 0
+                return res
+            if res.status in (EXHAUSTED, UNREACHABLE):
+                return res
+            if res.status == TIMEOUT:
+                self.sat_misses += 1
+                self.sat_stalled |= self.sat_misses >= self.max_misses
+        left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
+        res = self.greedy.next_plan(max_steps, left, min_steps)
+        if res.status == SOLVED:
             self.answers["greedy"] += 1
-            return res
-        left = self.sat_budget if time_limit is None else \
-            max(0.0, min(self.sat_budget, time_limit - (time.perf_counter() - t0)))
-        before = len(self.sat.stats)
-        short = self.sat.next_plan(len(res.actions) - 1, left, min_steps, horizon_cap)
-        cap = horizon_cap if horizon_cap is not None else math.inf
-        if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
-            self.sat_stalled = True
-        if short.status == SOLVED and self.greedy.satisfies(short.actions):
-            self.answers["sat"] += 1
-            return short
-        self.answers["greedy"] += 1
         return res
 
     plan = next_plan
