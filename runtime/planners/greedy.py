@@ -210,15 +210,6 @@ class GreedyTaskPlanner:
         values = self._known(known, moved)
         return not values or _holds(p.goal.formula, state, values)
 
-    def _penalty(self, state: int, values: dict) -> int:
-        """2 (a blocker's pick and place) for each action of the relaxed plan whose
-        precondition is false by what the node knows: h_FF counts geometry as possibly true,
-        and without this the search wanders the plateau of orders that keep a blocker where
-        it is (Sort Clutter: minutes)."""
-        acts = self.problem.actions
-        return 2 * sum(1 for aid in self.h.relaxed_actions(state)
-                       if not _holds(acts[aid].precondition, state, values))
-
     def _step(self, known: dict, a: GroundAction) -> dict:
         """``known`` after action ``a``: what ``a`` may change is forgotten."""
         if not known:
@@ -268,8 +259,6 @@ class GreedyTaskPlanner:
             h = self.h.h(state)
             if h == math.inf or depth >= max_steps:
                 return False
-            if values:
-                h += self._penalty(state, values)
             nodes.append(node)
             heapq.heappush(heap, (h, depth, len(nodes) - 1))
             return False

@@ -284,15 +284,6 @@ class FFHeuristic:
         finally:
             self._leave()
 
-    def relaxed_actions(self, state: int) -> list[int]:
-        """The ids of the actions of the FF relaxed plan from ``state`` (one per scheduled
-        (action, layer) pair; empty at goal states and dead ends)."""
-        self._enter()
-        try:
-            return [aid for aid, _ in self._analysis(state).pairs]
-        finally:
-            self._leave()
-
     def relaxed_plan(self, state: int) -> RelaxedPlan | None:
         """The FF relaxed plan from ``state`` (None when the goal is relaxed-unreachable)."""
         self._enter()
