@@ -18,10 +18,14 @@ SAT encoding's meaning of the constraints (:mod:`tmpc.compiler.smt.encode`):
   until one of them may change it (an action with a kinematic effect); a use of a literal known
   false fails, every other use is optimistically possible.
 
+Evidence may also name its *blockers* (the movable objects a failed transition collided with):
+it then lasts until one of them moves, and if none of them had moved in its prefix it holds in
+every plan while none has moved (a blocker rule; docs/planning.md).
+
 Both constraints hang on a trie of prefixes. A search node is the symbolic state, the trie node
-its path still follows (None once it left every constrained prefix) and the literal values it
-knows; nodes are deduplicated on all three, so the search is complete: ``exhausted`` means no
-plan of at most ``max_steps`` steps satisfies the constraints.
+its path still follows (None once it left every constrained prefix), the literal values it
+knows and which blockers have moved; nodes are deduplicated on all four, so the search is
+complete: ``exhausted`` means no plan of at most ``max_steps`` steps satisfies the constraints.
 
 :class:`PortfolioTaskPlanner` (the TMP planners' choice for first solutions) asks the SAT
 planner first while its encoding is small: at most ``sat_clauses`` step clauses up to the
@@ -29,11 +33,10 @@ shortest horizon not yet proven impossible. It gets ``sat_budget`` seconds a cal
 capped as ``horizon_cap`` says, and its plan is taken if it keeps the greedy planner's
 constraints (which are stronger: blocker rules). Otherwise, or on a timeout, the greedy search
 answers; and only it once a SAT check overran its cap by more than ``stall`` seconds or
-three calls in a row ran out of their budget. On small
-problems the SAT planner's shortest plans are the better guide (Hanoi-3: solved in 46 s from
-SAT's plans, unsolved in 150 s from the greedy planner's plans of the same lengths); on large
-ones Z3's first check of a long horizon preprocesses without heeding its timeout. Both planners receive every constraint, so
-either answer satisfies all of them.
+three calls in a row ran out of their budget. On small problems the SAT planner's shortest
+plans are the better guide (Hanoi-3: solved in 46 s from SAT's plans, unsolved in 150 s from
+the greedy planner's plans of the same lengths); on large ones Z3's first check of a long
+horizon preprocesses without heeding its timeout.
 """
 
 from __future__ import annotations
@@ -192,23 +195,29 @@ class GreedyTaskPlanner:
     def satisfies(self, plan: list[GroundAction]) -> bool:
         """Does ``plan`` (applicable in the discrete view) keep every constraint: no excluded
         prefix, no use of a literal known false, the goal not known false at its end?"""
+        return self.violation(plan) is None
+
+    def violation(self, plan: list[GroundAction]) -> int | None:
+        """The number of steps of ``plan`` through the first that breaks a constraint (0: the
+        empty prefix is excluded; ``len(plan) + 1``: only the goal is known false at its end),
+        or None if it keeps them all."""
         p = self.problem
         state, trie, known, moved = p.init, self.root, dict(self.root.evidence), 0
         if trie.excluded:
-            return False
-        for a in plan:
+            return 0
+        for k, a in enumerate(plan, start=1):
             values = self._known(known, moved)
             if values and not _holds(a.precondition, state, values):
-                return False
+                return k
             trie = trie.children.get(a.id) if trie is not None else None
             if trie is not None and trie.excluded:
-                return False
+                return k
             state, known = p.apply(state, a), self._step(known, a)
             moved |= self.moves[a.id]
             if trie is not None and trie.evidence:
                 known = {**known, **trie.evidence}
         values = self._known(known, moved)
-        return not values or _holds(p.goal.formula, state, values)
+        return None if not values or _holds(p.goal.formula, state, values) else len(plan) + 1
 
     def _step(self, known: dict, a: GroundAction) -> dict:
         """``known`` after action ``a``: what ``a`` may change is forgotten."""
@@ -299,8 +308,10 @@ class GreedyTaskPlanner:
 
 
 class PortfolioTaskPlanner:
-    """The greedy planner first, the SAT planner for a shorter plan while its checks answer in
-    time (see the module docstring). Every constraint goes to both."""
+    """The SAT planner while its encoding is small and it answers in time, else the greedy
+    planner (see the module docstring). Every constraint goes to both; a SAT plan that breaks
+    one only the greedy planner holds (a blocker rule) is excluded in the SAT planner through
+    the step that breaks it, and the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
                  sat_clauses: int = 200_000):
@@ -359,20 +370,31 @@ class PortfolioTaskPlanner:
         if not self.sat_stalled and \
                 self.sat.encoding.sizes["step"][0] * bound <= self.sat_clauses:
             budget = self.sat_budget if time_limit is None else min(self.sat_budget, time_limit)
-            before = len(self.sat.stats)
-            res = self.sat.next_plan(max_steps, budget, min_steps, horizon_cap)
             cap = horizon_cap if horizon_cap is not None else budget
-            if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
-                self.sat_stalled = True
-            if res.status == SOLVED and self.greedy.satisfies(res.actions):
-                self.answers["sat"] += 1
-                self.sat_misses = 0
-                return res
+            while True:
+                before = len(self.sat.stats)
+                left = budget - (time.perf_counter() - t0)
+                res = self.sat.next_plan(max_steps, max(0.0, left), min_steps, horizon_cap) \
+                    if left > 0 else PlanResult(TIMEOUT, None, 0)
+                if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
+                    self.sat_stalled = True
+                if res.status != SOLVED:
+                    break
+                k = self.greedy.violation(res.actions)
+                if k is None:
+                    self.answers["sat"] += 1
+                    self.sat_misses = 0
+                    return res
+                # a plan the SAT planner's weaker constraints let through: teach it the
+                # prefix (or, for the goal, the plan) that breaks a blocker rule, and ask again
+                if k > len(res.actions):
+                    self.sat.exclude_plan(res.actions)
+                else:
+                    self.sat.exclude_prefix(res.actions[:k])
             if res.status in (EXHAUSTED, UNREACHABLE):
                 return res
-            if res.status == TIMEOUT:
-                self.sat_misses += 1
-                self.sat_stalled |= self.sat_misses >= self.max_misses
+            self.sat_misses += 1                      # a timeout
+            self.sat_stalled |= self.sat_misses >= self.max_misses
         left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
         res = self.greedy.next_plan(max_steps, left, min_steps)
         if res.status == SOLVED:

@@ -120,10 +120,6 @@ def test_grasped_by_matches_the_grasp_set_by_construction(worlds):
         assert holds(T_hand @ rot(np.array([1.0, 0, 0]), 0.3))
 
 
-#: instances not yet solved within their manifest's 300 s (docs/benchmarks.md, "Results")
-UNSOLVED = {"clutter"}
-
-
 def test_blocks_c_is_unsolvable_as_published(worlds):
     """blocksworld_pb_C.pddl says `(clear d)` where it has no `d` (W015: ignored) and never says
     `(clear b)`: no plan can stack on `b`. `tmpc check` says so at the goal (E824)."""
@@ -134,10 +130,8 @@ def test_blocks_c_is_unsolvable_as_published(worlds):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", [
-    "blocks-D", "hanoi-3", "nonmono", "kitchen-noradish",
-    *(pytest.param(n, marks=pytest.mark.xfail(reason="not solved within 300 s yet"))
-      for n in sorted(UNSOLVED))])
+@pytest.mark.parametrize("name", ["blocks-D", "hanoi-3", "nonmono", "kitchen-noradish",
+                                  "clutter"])   # clutter: its manifest's decoupled planner
 def test_smallest_instances_plan_and_validate(tmp_path, name):
     out = tmp_path / "plan.json"
     run = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run",

@@ -1,24 +1,26 @@
-"""The ``decoupled`` planner's loop: a SAT task plan, transition configurations from the
+"""The ``decoupled`` planner's loop: a task plan, transition configurations from the
 projection sampler, a motion planner between them, backtracking to new transition samples and
 then to the next task plan.
 
 Task plans come from :class:`~tmpc.runtime.planners.optimal.tasks.TaskPlans` exactly as the
-optimal planner uses them to its first solution: the shortest plan consistent with what was
-learnt, a horizon whose check outlasts ``horizon_cap`` skipped rather than proven, the last plan's
-prefix through its first step that never succeeded excluded and blockers pinned before the next
-one (thesis §4.3.5). A plan is followed depth first: at each step, up to ``samples`` transition
-configurations are projected onto the action's geometric precondition (the first from the
-current configuration, seven around it, eight uniform; collision-free in the current mode;
-nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget``
-seconds) until one succeeds; the step's successor mode is then derived at that
-configuration. A step none of whose samples can be reached sends the search back to the
-previous step's next sample; a plan whose first step is exhausted, or whose motions took
-``plan_budget`` attempts, is given up for the next task plan. When no task plan is left (the
-exclusions and blockers were learnt from a few samples per step, not proofs), task planning
-starts afresh with new samples, until the time limit. A goal with geometric literals is one more step (the goal's projection).
-The final plan's motions are shortcut by tmpc
-(:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`) unless ``simplify`` is ``ompl``
-(OMPL's simplifier then runs on them instead).
+optimal planner uses them to its first solution (the SAT planner's shortest plan while its
+encoding is small, else the greedy search: :mod:`tmpc.runtime.planners.greedy`): consistent with
+what was learnt, the last plan's prefix through its first step that never succeeded excluded
+and blockers pinned before the next one (thesis §4.3.5; blocker rules for collisions with
+movable objects). A plan is followed depth first: at each step, up to ``samples`` transition
+configurations are projected onto the action's geometric precondition (the first round from the
+current configuration, seven starts around it and eight uniform; up to ``sample_rounds`` rounds
+of wider and uniform starts while none is valid; collision-free in the current mode; nearest
+first), and the motion to each is planned (``motion_planner``, ``motion_budget`` seconds) until
+one succeeds; the step's successor mode is then derived at that configuration. A step none of
+whose samples can be reached sends the search back to the previous step's next sample; a plan
+whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
+``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. When
+no task plan is left (the exclusions and blockers were learnt from a few samples per step, not
+proofs), task planning starts afresh with new samples, until the time limit. A goal with
+geometric literals is one more step (the goal's projection). The final plan's motions are
+shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time
+limit) unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead).
 Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
 """
 
