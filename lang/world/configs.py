@@ -57,6 +57,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
     "projection_iterations": (int, "projector steps per transition attempt of the optimal "
                                    "planner (default 30)"),
+    "task_planner": (str, "the optimal and decoupled planners' task planner to a first "
+                          "solution: auto, sat or greedy (default auto: docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),
@@ -381,9 +383,18 @@ def _positive(r: Reader, key: str, x: float) -> float:
 _AT_MOST = {"coin_bias": 1.0}
 
 
+#: parameters that name one of a few choices
+_CHOICES = {"task_planner": ("auto", "sat", "greedy")}
+
+
 def _param(r: TomlReader, key: str, value: Any, typ: type) -> object:
     v = r.expect(key, value, typ)
     name = key.rpartition(".")[2]
+    if typ is str:
+        if v not in _CHOICES.get(name, (v,)):
+            r.fail("E512", r.span(key), f"{key}: must be one of "
+                   f"{', '.join(_CHOICES[name])}, found {v!r}")
+        return v
     high = _AT_MOST.get(name)
     if not math.isfinite(v) or v < 0 or (high is not None and v > high):
         want = f"between 0 and {high:g}" if high is not None else "a finite number >= 0"

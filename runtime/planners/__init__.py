@@ -64,14 +64,15 @@ def _decoupled(problem, seed: int, overrides: dict):
 PLANNERS: dict[str, PlannerSpec] = {
     "unified": PlannerSpec(_unified, "composite-space RRT with the Algorithm 1 sampler "
                            "(thesis ch. 2, planet)", ("heuristic_bias", "simplify")),
-    "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT task plans, lazy transitions, "
+    "optimal": PlannerSpec(_optimal, "anytime TMIT*: SAT (or greedy) task plans, lazy "
+                           "transitions, "
                            "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)",
                            ("batch_size", "rewire", "first_solution", "until_converged",
-                            "simplify")),
+                            "task_planner", "simplify")),
     "decoupled": PlannerSpec(_decoupled, "the classical baseline: SAT task plans, projected "
                              "transitions, each motion by an OMPL planner (--motion-planner), "
                              "backtracking", ("motion_planner", "motion_budget", "samples",
-                                              "simplify")),
+                                              "task_planner", "simplify")),
 }
 
 

@@ -422,3 +422,37 @@ def test_native_manifest_names_its_planner(tmp_path):
     r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(run),
                         "--time-limit", "1"], capture_output=True, text=True, timeout=300)
     assert r.returncode != 0 and "E826" in r.stdout + r.stderr and "Traceback" not in r.stderr
+
+
+def test_native_manifest_names_its_task_planner(tmp_path):
+    """`[planner] task_planner` is one of auto, sat, greedy (E512 at its value otherwise) and
+    is a parameter of the optimal and decoupled planners; an unknown value given to a
+    planner's factory directly is its range error (E825, E851). (What each value builds:
+    tests/runtime/test_greedy.py.)"""
+    from tmpc.lang.diagnostics import InputError
+    from tmpc.runtime.planners import PLANNERS
+    d = copy_tree(EXAMPLES / "tabletop", tmp_path / "tabletop")
+    run = d / "tabletop.toml"
+    base = run.read_text()
+    run.write_text(base + '\n[planner]\ntask_planner = "sat"\n')
+    assert dict(load_config(run).params)["task_planner"] == "sat"
+    run.write_text(base + '\n[planner]\ntask_planner = "fast"\n')
+    diag = check_error("E512", run, '"fast"')
+    assert "auto, sat, greedy" in diag.message
+    run.write_text(base + "\n[planner]\ntask_planner = 1\n")
+    check_error("E506", run, "1")
+    assert "task_planner" in PLANNERS["optimal"].parameters
+    assert "task_planner" in PLANNERS["decoupled"].parameters
+    from tmpc.runtime.planners.decoupled import DecoupledPlanner
+    from tmpc.runtime.planners.optimal import OptimalPlanner
+
+    class World:
+        config = None
+
+    class Problem:
+        world = World()
+
+    for cls, code in ((OptimalPlanner, "E825"), (DecoupledPlanner, "E851")):
+        with pytest.raises(InputError) as exc:
+            cls.from_options(Problem(), 0, {"task_planner": "fast"})
+        assert exc.value.diagnostics[0].code == code

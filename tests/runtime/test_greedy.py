@@ -184,3 +184,24 @@ def test_blockers_are_the_movable_objects_a_collided_attempt_hit(tabletop_world)
     own = Transition(gp.init, pick_blue, gp.init)
     own.record_failure(mode, hits["blue"], True, 0.0)
     assert tasks.blockers(own) == []
+
+
+def test_the_task_planner_option_picks_the_planner(tabletop_world):
+    """`task_planner` (a manifest's [planner], `tmpc bench --param`): auto is the portfolio to a
+    first solution and SAT otherwise; sat and greedy force one."""
+    from tmpc.runtime.planners.decoupled import DecoupledPlanner
+    from tmpc.runtime.planners.optimal import OptimalPlanner
+    from tmpc.runtime.problem import PlanningProblem
+
+    p = PlanningProblem(tabletop_world)
+    kinds = {}
+    for over in ({}, {"first_solution": True}, {"task_planner": "sat", "first_solution": True},
+                 {"task_planner": "greedy"}):
+        planner = OptimalPlanner.from_options(p, 0, over)
+        kinds[str(over)] = type(planner.tasks.task_planner()).__name__
+    assert list(kinds.values()) == ["TaskPlanner", "PortfolioTaskPlanner", "TaskPlanner",
+                                    "PortfolioTaskPlanner"]
+    dec = DecoupledPlanner.from_options(p, 0, {"task_planner": "sat"})
+    assert type(dec.tasks.task_planner()) is TaskPlanner
+    assert type(DecoupledPlanner.from_options(p, 0).tasks.task_planner()) is \
+        PortfolioTaskPlanner

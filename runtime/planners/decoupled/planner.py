@@ -39,6 +39,7 @@ from tmpc.runtime.planners.decoupled.motion import (check_motion_planner, mode_s
                                                     ompl_space, plan_motion)
 from tmpc.runtime.planners.decoupled.space import motion_seed, path_cost
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
+from tmpc.runtime.planners.optimal.options import TASK_PLANNERS
 from tmpc.runtime.planners.optimal.tasks import TaskPlans
 from tmpc.runtime.planners.retreat import best_retreat, hand_frames, retreat_chains
 from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
@@ -62,6 +63,7 @@ class DecoupledOptions:
     retreat_step: float = 0.025
     min_steps: int = 0
     max_steps: int = 100
+    task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
 
 
 class DecoupledPlanner:
@@ -81,7 +83,8 @@ class DecoupledPlanner:
                        "motion_failures": 0, "backtracks": 0, "task_restarts": 0, "deepest_step": 0}
         self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
                                                        max_steps=options.max_steps,
-                                                       first_solution=True),
+                                                       first_solution=True,
+                                                       task_planner=options.task_planner),
                                self.counts)
         self.space = None
         self.hands: list[int] | None = None
@@ -107,7 +110,12 @@ class DecoupledPlanner:
             samples=int(over.get("samples", params.get("samples", base.samples))),
             shortcut=over.get("simplify", "tmpc") != "ompl",
             min_steps=int(params.get("min_steps", base.min_steps)),
-            max_steps=int(params.get("max_steps", base.max_steps)))
+            max_steps=int(params.get("max_steps", base.max_steps)),
+            task_planner=str(over.get("task_planner",
+                                      params.get("task_planner", base.task_planner))))
+        if opts.task_planner not in TASK_PLANNERS:
+            raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
+                                   None, f"one of {', '.join(TASK_PLANNERS)}"))
         if not (opts.motion_budget > 0 and opts.samples >= 1):
             raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget} or "
                                    f"samples {opts.samples} out of range", None,

@@ -18,6 +18,10 @@ import numpy as np
 from tmpc.runtime.problem import Mode
 
 
+#: the values of ``OptimalOptions.task_planner``
+TASK_PLANNERS = ("auto", "sat", "greedy")
+
+
 @dataclass(frozen=True)
 class OptimalOptions:
     batch_size: int = 50               # uniform samples per mode per batch (tmit-star: 50)
@@ -67,9 +71,9 @@ class OptimalOptions:
     #: tries the next (a plan, not a proof that none is shorter; tmpc's; None: off)
     horizon_cap: float | None = 1.0
     #: the task planner: ``sat`` (the shortest plan consistent with what was learnt), or
-    #: ``greedy`` (greedy best-first search, a plan soon; with ``first_solution`` it asks the
-    #: SAT planner for a shorter plan while that answers in time:
-    #: :mod:`tmpc.runtime.planners.greedy`); ``auto``: greedy to a first solution, else sat
+    #: ``greedy`` (the SAT planner while its encoding is small, else greedy best-first search,
+    #: with blocker rules: :mod:`tmpc.runtime.planners.greedy`); ``auto``: greedy to a first
+    #: solution, else sat
     task_planner: str = "auto"
     until_converged: bool = False
     converged_solutions: int = 10

@@ -26,7 +26,8 @@ from tmpc.lang.diagnostics import InputError, error
 from tmpc.runtime.planners.optimal.escapes import Escapes
 from tmpc.runtime.planners.optimal.graph import ModeGraph, load_graphs
 from tmpc.runtime.planners.optimal.improve import Improver
-from tmpc.runtime.planners.optimal.options import BestSolution, OptimalOptions, OptimalResult
+from tmpc.runtime.planners.optimal.options import (TASK_PLANNERS, BestSolution, OptimalOptions,
+                                                   OptimalResult)
 from tmpc.runtime.planners.optimal.sampling import TransitionSampler
 from tmpc.runtime.planners.optimal.search import Searcher
 from tmpc.runtime.planners.optimal.tasks import TaskPlans
@@ -64,9 +65,10 @@ class OptimalPlanner:
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "OptimalPlanner":
         """The registry's factory: ``batch_size``, ``batch_budget``, ``min_steps``,
-        ``max_steps``, ``projection_iterations`` from the run configuration (a tmit-star spec
-        or a manifest's [planner]); the command line's ``batch_size``, ``rewire``,
-        ``first_solution`` and ``until_converged`` win. E825 for a value out of range."""
+        ``max_steps``, ``projection_iterations``, ``task_planner`` from the run configuration
+        (a tmit-star spec or a manifest's [planner]); the command line's ``batch_size``,
+        ``rewire``, ``first_solution``, ``until_converged`` and ``task_planner`` (``tmpc bench
+        --param``) win. E825 for a value out of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
@@ -80,7 +82,12 @@ class OptimalPlanner:
             min_steps=int(params.get("min_steps", base.min_steps)),
             max_steps=int(params.get("max_steps", base.max_steps)),
             projection_iterations=int(params.get("projection_iterations",
-                                                 base.projection_iterations)))
+                                                 base.projection_iterations)),
+            task_planner=str(over.get("task_planner", params.get("task_planner",
+                                                                 base.task_planner))))
+        if opts.task_planner not in TASK_PLANNERS:
+            raise InputError(error("E825", f"task planner {opts.task_planner!r} is unknown",
+                                   None, f"one of {', '.join(TASK_PLANNERS)}"))
         for name, value, ok in (("batch size", opts.batch_size, opts.batch_size >= 1),
                                 ("batch budget", opts.batch_budget, opts.batch_budget >= 1),
                                 ("rewire factor", opts.rewire, opts.rewire > 0),
