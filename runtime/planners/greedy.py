@@ -62,7 +62,10 @@ def _use(literal) -> Use:
 
 
 def _holds(f, state: int, known: dict) -> bool:
-    """``f`` in ``state``; a geometric literal is false only where ``known`` says so."""
+    """``f`` in ``state``; a geometric literal is false only where ``known`` says so. (Not
+    :func:`~tmpc.compiler.ground.formula.holds` with an oracle: an oracle gives an atom one
+    value, so an unknown atom could not be possible both where it is used and where it is
+    negated, as the SAT encoding's separate literal uses are.)"""
     t = type(f)
     if t is GAtom:
         return (state >> f.id) & 1 == 1
@@ -110,19 +113,17 @@ class GreedyTaskPlanner:
 
     takes_blockers = True               # :meth:`add_evidence` takes ``blockers``
 
-    def __init__(self, problem: GroundProblem, heuristic: FFHeuristic | None = None):
+    def __init__(self, problem: GroundProblem):
         self.problem = problem
-        self.h = heuristic or FFHeuristic(problem)
+        self.h = FFHeuristic(problem)
         self.root = _Prefix()
-        self.changers = frozenset(a.id for a in problem.actions
-                                  if a.kinematic or any(ce.kinematic for ce in a.conditional))
         used: set[Use] = set()
         for a in problem.actions:
             _uses(a.precondition, used)
         _uses(problem.goal.formula, used)
         self.used = frozenset(used)
-        self.geometric = bool(used)
-        #: per action, the bit mask of the objects its kinematic effects move
+        #: per action, the bit mask of the objects its kinematic effects move (nonzero: the
+        #: action may change every geometric literal, the SAT encoding's default changers)
         names: dict[str, int] = {}
         self.moves: list[int] = []
         for a in problem.actions:
@@ -131,11 +132,12 @@ class GreedyTaskPlanner:
                 m |= 1 << names.setdefault(ke.child.lower(), len(names))
             self.moves.append(m)
         self.object_bit = names
+        #: the objects some action moves (lower-cased): the only possible blockers
+        self.movable = frozenset(names)
         #: blocker rules: use -> [mask of objects]; the use is false while none of them moved
         self.rules: dict[Use, list[int]] = {}
         self.rule_mask = 0
         self.expansions = 0
-        self.seconds = 0.0
 
     # ---- constraints ----------------------------------------------------------------------
     def _node(self, prefix: Iterable[GroundAction]) -> _Prefix:
@@ -223,7 +225,7 @@ class GreedyTaskPlanner:
         """``known`` after action ``a``: what ``a`` may change is forgotten."""
         if not known:
             return known
-        kin = a.id in self.changers
+        kin = self.moves[a.id] != 0
         return {u: (v, m) for u, (v, m) in known.items()
                 if not (a.id in m if m is not None else kin)}
 
@@ -237,7 +239,6 @@ class GreedyTaskPlanner:
         p = self.problem
 
         def result(status: str, plan=None) -> PlanResult:
-            self.seconds += time.perf_counter() - t0
             return PlanResult(status, plan, len(plan) if plan else 0,
                               seconds=time.perf_counter() - t0)
 
@@ -246,7 +247,8 @@ class GreedyTaskPlanner:
         if self.root.excluded:
             return result(EXHAUSTED)
         actions = p.actions
-        # per node: (state, trie node, evidence known, moved objects, parent, action id, depth)
+        # per node: (state, trie node, evidence known, moved objects, parent, action id, depth,
+        # the literal values known there)
         nodes: list[tuple] = []
         seen: set = set()
         heap: list = []
@@ -260,8 +262,8 @@ class GreedyTaskPlanner:
             if key in seen:
                 return False
             seen.add(key)
-            node = (state, trie, known, moved, parent, aid, depth)
             values = self._known(known, moved)
+            node = (state, trie, known, moved, parent, aid, depth, values)
             if depth >= min_steps and _holds(p.goal.formula, state, values):
                 nodes.append(node)
                 return True
@@ -279,8 +281,7 @@ class GreedyTaskPlanner:
                 return result(TIMEOUT)
             self.expansions += 1
             _, depth, i = heapq.heappop(heap)
-            state, trie, known, moved, _, _, _ = nodes[i]
-            values = self._known(known, moved)
+            state, trie, known, moved, _, _, _, values = nodes[i]
             for a in actions:
                 if not a.pre.holds(state) or (values and
                                               not _holds(a.precondition, state, values)):
@@ -333,15 +334,8 @@ class PortfolioTaskPlanner:
         self.answers = {"greedy": 0, "sat": 0}
 
     @property
-    def lower_bound(self) -> int | None:
-        return self.sat.lower_bound
-
-    @property
-    def stats(self) -> list:
-        return self.sat.stats
-
-    def impossible_below(self) -> int:
-        return self.sat.impossible_below()
+    def movable(self) -> frozenset[str]:
+        return self.greedy.movable
 
     def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
         prefix = list(prefix)

@@ -242,13 +242,10 @@ class TaskPlanner:
             if not self._extend_to(k, deadline):
                 return result(TIMEOUT, k)
             new = [self._sizes[n] for n in range(had + 1, k + 1)]
-            cap = None
+            check_by = deadline
             if horizon_cap is not None:
-                cap = horizon_cap
-                capped = time.perf_counter() + cap
+                capped = time.perf_counter() + horizon_cap
                 check_by = capped if deadline is None else min(deadline, capped)
-            else:
-                check_by = deadline
             answer, solve_s = self._check(k, check_by)
             st = HorizonStats(k, sum(x[0] for x in new), sum(x[1] for x in new),
                               sum(x[2] for x in new), solve_s, answer)
@@ -257,7 +254,8 @@ class TaskPlanner:
             if answer == "sat":
                 return result(SOLVED, k, self._extract(k))
             if answer == "unknown":
-                if cap is None or (deadline is not None and time.perf_counter() >= deadline):
+                if horizon_cap is None or (deadline is not None and
+                                           time.perf_counter() >= deadline):
                     return result(TIMEOUT, k)
                 k += 1                            # not proven: tried again at the next call
                 continue

@@ -191,14 +191,19 @@ def _random_domain(rng: random.Random, n_atoms: int = 5, n_actions: int = 6) -> 
             f"{derived} {' '.join(parts)})")
 
 
-@pytest.mark.parametrize("seed", range(40))
-def test_random_problems_against_bfs(seed):
+def random_problem(seed: int):
+    """The ground random problem of ``seed`` (a random domain, initial state and goal)."""
     rng = random.Random(seed)
     dom = _random_domain(rng)
     init = " ".join(f"(f{i})" for i in range(5) if rng.random() < 0.4)
     goal = rng.choice(["(g)", "(and (f4) (not (f0)))", "(or (f3) (and (g) (f4)))",
                        "(and (f1) (f2) (f3))"])
-    gp = _ground(dom, f"(define (problem p) (:domain rnd) (:init {init}) (:goal {goal}))")
+    return _ground(dom, f"(define (problem p) (:domain rnd) (:init {init}) (:goal {goal}))")
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_random_problems_against_bfs(seed):
+    gp = random_problem(seed)
     optimum = bfs_length(gp)
     result = TaskPlanner(gp).plan(max_steps=12)
     if optimum is None:

@@ -9,27 +9,15 @@ import random
 
 import pytest
 
-from tests.compiler.test_smt import ARM, _ground, _random_domain, bfs_length
+from tests.compiler.test_smt import _arm, bfs_length, random_problem
 from tmpc.compiler.ground import GeoLiteral
 from tmpc.runtime.planners.greedy import GreedyTaskPlanner, PortfolioTaskPlanner
 from tmpc.runtime.planners.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
 
 
-def _arm(goal: str, sticks: str = "x"):
-    return _ground(ARM, f"""(define (problem p) (:domain arm)
-      (:objects {sticks} - stick t1 t2 - surface m - manipulator)
-      (:init {' '.join(f'(on {s} t1)' for s in sticks.split())} (free m))
-      (:goal (and {goal})))""")
-
-
 @pytest.mark.parametrize("seed", range(40))
 def test_random_problems_replay_or_have_no_plan(seed):
-    rng = random.Random(seed)
-    dom = _random_domain(rng)
-    init = " ".join(f"(f{i})" for i in range(5) if rng.random() < 0.4)
-    goal = rng.choice(["(g)", "(and (f4) (not (f0)))", "(or (f3) (and (g) (f4)))",
-                       "(and (f1) (f2) (f3))"])
-    gp = _ground(dom, f"(define (problem p) (:domain rnd) (:init {init}) (:goal {goal}))")
+    gp = random_problem(seed)
     optimum = bfs_length(gp)
     result = GreedyTaskPlanner(gp).next_plan(max_steps=12)
     if optimum is None:

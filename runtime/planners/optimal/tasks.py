@@ -79,11 +79,10 @@ class TaskPlans:
         self.plan: list | None = None
         self.plan_transitions: list[Transition] = []
         self.exhausted = False
-        self.movable: set[str] | None = None
 
     def task_planner(self) -> TaskPlanner:
-        """The task planner ``task_planner`` names (``auto``: the greedy-then-SAT portfolio to
-        a first solution, else SAT), built on first use (or by the run's warm-up)."""
+        """The task planner ``task_planner`` names (``auto``: the SAT-or-greedy portfolio to a
+        first solution, else SAT), built on first use (or by the run's warm-up)."""
         if self.tp is None:
             kind = self.opt.task_planner
             if kind == "auto":
@@ -160,13 +159,11 @@ class TaskPlans:
         self.plan = None
 
     def blockers(self, tr: Transition) -> list[str]:
-        """The movable objects (ones some action links) that ``tr``'s collided attempts hit,
-        the action's own arguments and what the robot holds excepted; empty if any of those
-        attempts also hit something that never moves (then moving objects may not help)."""
-        if self.movable is None:
-            self.movable = {ke.child.lower() for a in self.p.ground.actions
-                            for ke in list(a.kinematic) +
-                            [x for ce in a.conditional for x in ce.kinematic]}
+        """The movable objects (ones some action moves: the portfolio's ``movable``) that
+        ``tr``'s collided attempts hit, the action's own arguments and what the robot holds
+        excepted; empty if any of those attempts also hit something that never moves (then
+        moving objects may not help)."""
+        movable = self.task_planner().movable
         out: set[str] = set()
         own = {x.lower() for x in tr.action.args}
         for mode, q in tr.collided:
@@ -175,7 +172,7 @@ class TaskPlans:
             hit = set()
             for a, b, _ in rep.pairs:
                 for x in (a.lower(), b.lower()):
-                    if x in self.movable and x not in own and x not in held:
+                    if x in movable and x not in own and x not in held:
                         hit.add(x)
             if not hit:
                 return []
