@@ -19,7 +19,7 @@ POSE_TOL = 1e-4
 #: is within SUPPORT_TILT of vertical (rad)
 SUPPORT_GAP, SUPPORT_SINK, SUPPORT_TILT = 0.01, 0.005, math.radians(5.0)
 #: a support region thinner than twice this (a point or a segment: the benchmark suite's pegs,
-#: blocks and targets) is met within it sideways, as stdlib `placed-on` places
+#: blocks and targets) is met within it sideways (stdlib `placed-on` places within 5 mm)
 SUPPORT_SLACK = 0.008
 #: slack on joint limits and on values that must not change (rad or m)
 JOINT_TOL = 1e-6
