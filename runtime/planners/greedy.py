@@ -22,6 +22,10 @@ Evidence may also name its *blockers* (the movable objects a failed transition c
 it then lasts until one of them moves, and if none of them had moved in its prefix it holds in
 every plan while none has moved (a blocker rule; docs/planning.md).
 
+A *state rule* makes a literal false in every state where a set of atoms holds, whatever came
+before: a placement that collided with the scene's fixed objects where the object it goes on
+stood on a given stack (its support chain: Blocks World's ceiling over a tower on the table).
+
 Both constraints hang on a trie of prefixes. A search node is the symbolic state, the trie node
 its path still follows (None once it left every constrained prefix), the literal values it
 knows and which blockers have moved; nodes are deduplicated on all four, so the search is
@@ -137,6 +141,8 @@ class GreedyTaskPlanner:
         #: blocker rules: use -> [mask of objects]; the use is false while none of them moved
         self.rules: dict[Use, list[int]] = {}
         self.rule_mask = 0
+        #: state rules: use -> [mask of atoms]; the use is false where all of them hold
+        self.state_rules: dict[Use, list[int]] = {}
         self.expansions = 0
 
     # ---- constraints ----------------------------------------------------------------------
@@ -185,12 +191,32 @@ class GreedyTaskPlanner:
         self._node(prefix).evidence[use] = (bool(value), None)
         return True
 
-    def _known(self, known: dict, moved: int) -> dict:
-        """The literal values a node knows: its evidence, and the blocker rules whose
-        blockers have not moved (evidence from the node's own prefix wins)."""
+    def add_state_rule(self, literal, atoms: Iterable[int]) -> bool:
+        """``literal`` is false in every state where all of ``atoms`` (ids) hold; False (and
+        nothing added) if no precondition or goal uses it, ``atoms`` is empty or the rule is
+        known."""
+        use = _use(literal)
+        mask = 0
+        for atom in atoms:
+            mask |= 1 << atom
+        if use not in self.used or not mask:
+            return False
+        rules = self.state_rules.setdefault(use, [])
+        if mask in rules:
+            return False
+        rules.append(mask)
+        return True
+
+    def _known(self, known: dict, moved: int, state: int) -> dict:
+        """The literal values a node knows: its evidence, the blocker rules whose blockers
+        have not moved and the state rules that hold in ``state`` (evidence from the node's
+        own prefix wins)."""
         out = {u: v for u, (v, _) in known.items()} if known else {}
         for use, masks in self.rules.items():
             if use not in out and any(not moved & m for m in masks):
+                out[use] = False
+        for use, masks in self.state_rules.items():
+            if use not in out and any(state & m == m for m in masks):
                 out[use] = False
         return out
 
@@ -208,7 +234,7 @@ class GreedyTaskPlanner:
         if trie.excluded:
             return 0
         for k, a in enumerate(plan, start=1):
-            values = self._known(known, moved)
+            values = self._known(known, moved, state)
             if values and not _holds(a.precondition, state, values):
                 return k
             trie = trie.children.get(a.id) if trie is not None else None
@@ -218,7 +244,7 @@ class GreedyTaskPlanner:
             moved |= self.moves[a.id]
             if trie is not None and trie.evidence:
                 known = {**known, **trie.evidence}
-        values = self._known(known, moved)
+        values = self._known(known, moved, state)
         return None if not values or _holds(p.goal.formula, state, values) else len(plan) + 1
 
     def _step(self, known: dict, a: GroundAction) -> dict:
@@ -262,7 +288,7 @@ class GreedyTaskPlanner:
             if key in seen:
                 return False
             seen.add(key)
-            values = self._known(known, moved)
+            values = self._known(known, moved, state)
             node = (state, trie, known, moved, parent, aid, depth, values)
             if depth >= min_steps and _holds(p.goal.formula, state, values):
                 nodes.append(node)
@@ -311,7 +337,7 @@ class GreedyTaskPlanner:
 class PortfolioTaskPlanner:
     """The SAT planner while its encoding is small and it answers in time, else the greedy
     planner (see the module docstring). Every constraint goes to both; a SAT plan that breaks
-    one only the greedy planner holds (a blocker rule) is excluded in the SAT planner through
+    one only the greedy planner holds (a blocker or state rule) is excluded in the SAT planner through
     the step that breaks it, and the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
@@ -353,6 +379,11 @@ class PortfolioTaskPlanner:
         used = self.sat.add_evidence(prefix, literal, value)
         self.greedy.add_evidence(prefix, literal, value, blockers)
         return used
+
+    def add_state_rule(self, literal, atoms: Iterable[int]) -> bool:
+        """The greedy planner's state rule; SAT plans that break it are excluded as plans that
+        break a blocker rule are."""
+        return self.greedy.add_state_rule(literal, atoms)
 
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:

@@ -193,3 +193,111 @@ def test_the_task_planner_option_picks_the_planner(tabletop_world):
     assert type(dec.tasks.task_planner()) is TaskPlanner
     assert type(DecoupledPlanner.from_options(p, 0).tasks.task_planner()) is \
         PortfolioTaskPlanner
+
+
+def test_a_state_rule_holds_wherever_its_atoms_do():
+    """A state rule: the literal is false in every state where its atoms all hold, whatever
+    came before; the portfolio excludes SAT plans that break it."""
+    gp = _arm("(on x t2) (lit)")
+    above = GeoLiteral("above", ("m", "t2"), True)
+    lit = next(i for i, atom in enumerate(gp.atoms) if atom.predicate == "lit")
+    switch = gp.find_action("switch")
+    pick, place = gp.find_action("pick", "x", "t1", "m"), gp.find_action("place", "x", "t2", "m")
+    g = GreedyTaskPlanner(gp)
+    assert g.add_state_rule(above, [lit]) and not g.add_state_rule(above, [lit])
+    assert not g.add_state_rule(above, [])
+    assert not g.add_state_rule(GeoLiteral("unused", ("m",), True), [lit])
+    assert g.violation([switch, pick, place]) == 3
+    assert g.satisfies([pick, place, switch])
+    r = g.next_plan(max_steps=6)
+    assert r.solved and r.actions == [pick, place, switch]
+    pf = PortfolioTaskPlanner(gp)
+    assert pf.add_state_rule(above, [lit])
+    r = pf.next_plan(max_steps=6, horizon_cap=1.0)
+    assert r.solved and pf.greedy.satisfies(r.actions) and r.actions[-1] is switch
+
+
+@pytest.fixture(scope="module")
+def blocks_d():
+    from pathlib import Path
+
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.problem import PlanningProblem
+    root = Path(__file__).resolve().parents[2]
+    return PlanningProblem(open_world(root / "examples/lagriffoul/blocks-D/run.toml"))
+
+
+def _configurations(p, want: dict, n: int = 4000):
+    """Uniform configurations of ``p``'s initial mode by what they collide with: ``want``
+    maps a name to a test of the set of names a configuration's collisions involve."""
+    import numpy as np
+    mode = p.initial
+    found = {}
+    for q in p.uniform(np.random.default_rng(0), n):
+        names = frozenset(x for a, b, _ in p.collision.check(q, poses=mode.poses,
+                                                            attached=mode.held).pairs
+                          for x in (a, b))
+        for key, test in want.items():
+            if key not in found and names and test(names):
+                found[key] = q
+        if len(found) == len(want):
+            return found
+    raise AssertionError(f"no such configurations among the samples: {set(want) - set(found)}")
+
+
+def test_failures_no_movable_object_explains_become_anchors_and_state_rules(blocks_d):
+    """TaskPlans.anchor_rules on Blocks World D: a grasp never reached (a real miss) is false
+    until its block moves, in every plan; a placement on `c` whose attempts all hit the
+    scene's fixed objects is false wherever `c` stands on its stack again; neither comes
+    before RULE_FAILURES failures, nor from an attempt that hit a block."""
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import RULE_FAILURES, TaskPlans, Transition
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
+    greedy = tasks.task_planner().greedy
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    assert sorted(tasks.support_chain(gp.init, ["d"])) == sorted(
+        [atom["(on d b)"], atom["(on-surface b table)"]])
+    assert tasks.support_chain(gp.init, ["table"]) == []
+    hits = _configurations(p, {
+        "fixed": lambda s: "table" in s and not s & {"a", "b", "c", "d"},
+        "block": lambda s: "a" in s})
+    assert tasks._hits(mode, hits["fixed"]) == "fixed"
+    assert tasks._hits(mode, hits["block"]) == "movable"
+    assert tasks._hits(mode, hits["block"], {"a"}) != "movable"     # the action's own
+
+    R = "r_gripper_tool_frame"
+    unstack = gp.find_action("unstack", "d", "b", R)
+    tr = Transition(gp.init, unstack, gp.apply(gp.init, unstack))
+
+    def learn(tasks, plan, transitions):
+        tasks.plan, tasks.plan_transitions = plan, transitions
+        tasks.learn()
+    for _ in range(RULE_FAILURES - 1):
+        tr.record_failure(mode, p.q0, False, 0.1)
+    learn(tasks, [unstack], [tr])
+    assert not greedy.rules                      # one failure short
+    tr.record_failure(mode, p.q0, False, 0.1)
+    learn(tasks, [unstack], [tr])
+    assert list(greedy.rules) == [("grasp", (R.lower(), "d"), True)]
+    assert greedy.violation([unstack]) == 1
+    assert greedy.satisfies([gp.find_action("unstack", "d", "b", "l_gripper_tool_frame")])
+
+    # a placement of d on c: every attempt hit the table, none a block
+    pick_d = gp.find_action("unstack", "d", "b", "l_gripper_tool_frame")
+    held = gp.apply(gp.init, pick_d)
+    stack = gp.find_action("stack", "d", "c", "l_gripper_tool_frame")
+    tr = Transition(held, stack, gp.apply(held, stack))
+    for _ in range(RULE_FAILURES):
+        tr.record_failure(mode, hits["fixed"], True, 0.0)
+    tasks.anchor_rules([pick_d], tr)
+    use = ("on~means", ("d", "c"), True)
+    assert greedy.state_rules == {use: [1 << atom["(on-surface c table)"]]}
+    assert greedy.violation([pick_d, stack]) == 2
+    # ... another block among the collisions: nothing learnt
+    fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    tr.collided[-1] = (mode, hits["block"])
+    fresh.anchor_rules([pick_d], tr)
+    assert not fresh.task_planner().greedy.state_rules

@@ -10,6 +10,20 @@ succeeded shows its geometric literals hold after its prefix; one that never suc
 literal false at its best attempt (the projection closest to the precondition), shows that
 literal false there. Pinned literals remove every plan that needs them at that point without
 first running an action that may change them, not only the excluded prefix.
+
+With a task planner that takes them (the greedy portfolio), a failed transition teaches more
+than its prefix (docs/planning.md, "Rules"). If it collided with movable objects (its
+*blockers*), its literals stay false until one of them moves. Otherwise, after at least
+:data:`RULE_FAILURES` failed attempts:
+
+* never reached, its closest attempt a real miss: its literal is false until one of the movable
+  objects it names (the object grasped, the one placed on; not what the hand holds) moves: the
+  *anchors*, blockers of the same kind (Blocks World E's right arm cannot reach `d`);
+* every kept collision with the scene's fixed objects, none with another movable one (the
+  action's own objects excepted, as for blockers): a placement's
+  literal is false wherever the object it goes on stands on the same stack (a *state rule* over
+  its support chain: Blocks World's ceiling stops every tower of that height on the table,
+  whatever came before).
 """
 
 from __future__ import annotations
@@ -28,6 +42,15 @@ from tmpc.runtime.problem import Mode, PlanningProblem
 
 #: collided attempts a transition keeps for its blockers
 KEEP_COLLIDED = 4
+#: failed attempts (none succeeded) before a transition's failure becomes an anchor or a state
+#: rule: two of the decoupled planner's steps of 3 rounds of 16 projections (one unlucky step,
+#: 1 in 12 for Blocks World E's left-arm grasp of `d`, must not rule a grasp out for good)
+RULE_FAILURES = 96
+#: the suffix of the hidden geometric predicate that gives a symbolic one its meaning
+MEANS = "~means"
+#: a never-reached transition's closest attempt this far (its distance) is a real miss, not a
+#: projection that ran out of iterations
+MISS = 0.02
 
 
 @dataclass(eq=False)
@@ -79,6 +102,8 @@ class TaskPlans:
         self.plan: list | None = None
         self.plan_transitions: list[Transition] = []
         self.exhausted = False
+        #: the symbolic predicates with a placement meaning (``P~means``), on first use
+        self._placing: set[str] | None = None
 
     def task_planner(self) -> TaskPlanner:
         """The task planner ``task_planner`` names (``auto``: the SAT-or-greedy portfolio to a
@@ -155,8 +180,77 @@ class TaskPlans:
                     for lit in tr.action.pre_geometric:
                         if self.tp.add_evidence(plan[:i], lit, False, blockers):
                             self.counts["blockers"] = self.counts.get("blockers", 0) + 1
+                elif tr.failures >= RULE_FAILURES:
+                    self.anchor_rules(plan[:i], tr)
         self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
         self.plan = None
+
+    def anchor_rules(self, prefix: list, tr: Transition) -> None:
+        """What a transition that failed for reasons no movable object explains teaches (the
+        module docstring): never reached, a real miss (:data:`MISS` at its closest): each
+        literal false until one of its anchors moves; every kept collision with the scene's
+        fixed objects and none with a movable one: placements false wherever the support
+        chain of what they go on holds."""
+        held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
+        unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
+        own = {x.lower() for x in tr.action.args}
+        fixed = bool(tr.collided) and all(self._hits(mode, q, own) == "fixed"
+                                          for mode, q in tr.collided)
+        for lit in tr.action.pre_geometric:
+            anchors = [x for x in lit.args if x.lower() in self.task_planner().movable
+                       and x.lower() not in held]
+            if not lit.positive or not anchors:
+                continue
+            if unreached and self.task_planner().add_evidence(prefix, lit, False, anchors):
+                self.counts["anchors"] = self.counts.get("anchors", 0) + 1
+            if fixed and lit.predicate.endswith(MEANS):
+                chain = self.support_chain(tr.sym, anchors)
+                if chain and self.task_planner().add_state_rule(lit, chain):
+                    self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
+
+    @staticmethod
+    def _modes(tr: Transition) -> list[Mode]:
+        modes = [mode for mode, _ in tr.collided]
+        if tr.best_fail is not None:
+            modes.append(tr.best_fail[1])
+        return modes
+
+    def _hits(self, mode: Mode, q: np.ndarray, own=frozenset()) -> str:
+        """What the configuration ``q`` in ``mode`` collides with, ``own`` objects (the
+        action's) and what is held excepted: ``movable`` (an object some action moves), else
+        ``fixed`` (an object none moves), else ``robot`` (only itself)."""
+        movable = self.task_planner().movable
+        held = {h.lower() for h in (mode.held or {})} | set(own)
+        kind = "robot"
+        for a, b, _ in self.p.collision.check(q, poses=mode.poses, attached=mode.held).pairs:
+            for x in (a, b):
+                if x not in mode.poses or x.lower() in held:
+                    continue
+                if x.lower() in movable:
+                    return "movable"
+                kind = "fixed"
+        return kind
+
+    def support_chain(self, sym: int, objects: list[str]) -> list[int]:
+        """The atoms of state ``sym`` that say what ``objects`` stand on, down to the scene's
+        fixed objects: ``(P x y)`` with a placement meaning (a ``P~means``), then y's."""
+        g = self.p.ground
+        if self._placing is None:
+            self._placing = {lit.predicate[:-len(MEANS)] for a in g.actions
+                             for lit in a.pre_geometric if lit.predicate.endswith(MEANS)}
+        out: list[int] = []
+        todo, seen = [x.lower() for x in objects], set()
+        while todo:
+            x = todo.pop()
+            if x in seen:
+                continue
+            seen.add(x)
+            for i, atom in enumerate(g.atoms):
+                if (sym >> i) & 1 and atom.predicate in self._placing and atom.args and \
+                        atom.args[0].lower() == x:
+                    out.append(i)
+                    todo += [y.lower() for y in atom.args[1:] if y.lower() in self.task_planner().movable]
+        return out
 
     def blockers(self, tr: Transition) -> list[str]:
         """The movable objects (ones some action moves: the portfolio's ``movable``) that
