@@ -214,8 +214,11 @@ _TABLE = (
                           "as planet's clutter_nohit does): read as a robot frame or scene object"),
 
     # Scenes and configurations
-    Code("W019", WARNING, "a semantics module's note: another domain name, ignored action "
-                          "parameters, or an `:init` atom of a predicate the scene now decides"),
+    Code("W019", WARNING, "a semantics module names another domain than the one it is used with"),
+    Code("W020", WARNING, "a semantics module's action gives parameters: the domain's are used, "
+                          "these are ignored"),
+    Code("W021", WARNING, "an `:init` atom of a predicate a semantics module makes geometric: "
+                          "the scene decides its value, the atom is ignored"),
     Code("E500", ERROR, "malformed JSON (with the position; trailing commas, comments, single "
                         "quotes, NaN, a key given twice)"),
     Code("E501", ERROR, "malformed XML in a planet scene"),

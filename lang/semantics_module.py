@@ -14,7 +14,7 @@ point at the semantics module or at the PDDL file. The rules:
   task planner (the file tracks it) and its meaning becomes a hidden geometric predicate
   ``P~means`` added to the precondition of every action that adds ``P``: the place where it
   becomes true must make it true. One no effect changes becomes geometric (its `:init` atoms are
-  then dropped with W019: the scene decides them);
+  then dropped with W021: the scene decides them);
 - ``(:action A :precondition F)`` adds ``F`` to ``A``'s precondition (``?hand`` is the frame);
 - ``(:action A :carries ?x ...)``: ``A`` moves ``?x`` in one step without a holding predicate (a
   Hanoi ``move``); it is split into ``A~grasp`` (``A``'s precondition and ``F``; the hand takes
@@ -222,7 +222,7 @@ class _Overlay:
                                         f"`{self.domain.name.text}`", a.name.span,
                                         suggest(key, by_key)))
             if a.params:
-                self.diags.append(warning("W019", f"`{a.name.text}`'s parameters are the "
+                self.diags.append(warning("W020", f"`{a.name.text}`'s parameters are the "
                                           "domain's; the ones given here are ignored",
                                           a.params[0].span))
         out: list[A.Action] = []
@@ -306,7 +306,7 @@ class _Overlay:
             kept = []
             for item in problem.init:
                 if isinstance(item, A.Atom) and item.pred.key in geometric_now:
-                    self.diags.append(warning("W019", f"`{item.pred.text}` has a geometric "
+                    self.diags.append(warning("W021", f"`{item.pred.text}` has a geometric "
                                               "meaning here: the scene decides its initial "
                                               "value; this atom is ignored", item.span))
                     continue

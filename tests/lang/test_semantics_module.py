@@ -124,6 +124,34 @@ def test_module_errors_point_into_the_module(tmp_path, module, code):
     assert d.span is not None and d.span.path.endswith("m.tmpc")
 
 
+@pytest.mark.parametrize("module, problem, code, where, text", [
+    # the module names another domain
+    (MODULE.replace("(:domain bw)", "(:domain blocksworld)"), PROBLEM, "W019", "m.tmpc",
+     "blocksworld"),
+    # an action given parameters: the domain's are kept
+    (MODULE.replace("(:action pickup :precondition", "(:action pickup :parameters (?o) "
+                                                     ":precondition"), PROBLEM, "W020",
+     "m.tmpc", "?o"),
+    # an :init atom of a predicate the module makes geometric (no effect changes `near`)
+    (MODULE.replace("(on-surface ?x - objs ?s - surface :semantics (placed-on ?x ?s))",
+                    "(on-surface ?x - objs ?s - surface :semantics (placed-on ?x ?s))\n"
+                    "    (near ?x - objs ?s - surface :semantics (placed-on ?x ?s))"),
+     PROBLEM.replace("(arm-empty))", "(arm-empty) (near a t1))"), "W021", "p.pddl", "(near a t1)"),
+])
+def test_module_notes_are_warnings_each_with_its_code_and_place(tmp_path, module, problem, code,
+                                                                where, text):
+    report = _check(tmp_path, module, DOMAIN, problem)
+    assert not [d for d in report.diagnostics if d.is_error], \
+        [(d.code, d.message) for d in report.diagnostics]
+    ours = [d for d in report.diagnostics if d.code == code]
+    assert len(ours) == 1, [(d.code, d.message) for d in report.diagnostics]
+    d = ours[0]
+    assert d.span is not None and d.span.path.endswith(where)
+    src = (tmp_path / where).read_text()
+    assert text in src[d.span.start:d.span.end + len(text)], (src[d.span.start:], d.span)
+    assert {x.code for x in report.diagnostics} & {"W019", "W020", "W021"} == {code}
+
+
 def test_a_file_without_a_semantics_module_is_e125(tmp_path):
     report = _check(tmp_path, "(define (module x) (:requirements :tmpc))")
     assert "E125" in {d.code for d in report.diagnostics if d.is_error}
