@@ -22,9 +22,12 @@ Evidence may also name its *blockers* (the movable objects a failed transition c
 it then lasts until one of them moves, and if none of them had moved in its prefix it holds in
 every plan while none has moved (a blocker rule; docs/planning.md).
 
-A *state rule* makes a literal false in every state where a set of atoms holds, whatever came
-before: a placement that collided with the scene's fixed objects where the object it goes on
-stood on a given stack (its support chain: Blocks World's ceiling over a tower on the table).
+An *action rule* rules one ground action out wherever a set of atoms holds and none of a set
+of objects has moved yet, whatever came before: a placement never reached (the left arm and
+the far tray: no object need move, so never), or one that collided with the scene's fixed
+objects where what it goes on stood on a given stack (its support chain: Blocks World's ceiling
+over a tower on the table). A placement's literal does not name the hand, so these rules are
+the action's, not the literal's.
 
 Both constraints hang on a trie of prefixes. A search node is the symbolic state, the trie node
 its path still follows (None once it left every constrained prefix), the literal values it
@@ -141,8 +144,9 @@ class GreedyTaskPlanner:
         #: blocker rules: use -> [mask of objects]; the use is false while none of them moved
         self.rules: dict[Use, list[int]] = {}
         self.rule_mask = 0
-        #: state rules: use -> [mask of atoms]; the use is false where all of them hold
-        self.state_rules: dict[Use, list[int]] = {}
+        #: action rules: action id -> [(mask of objects, mask of atoms)]; the action is ruled
+        #: out where all the atoms hold and none of the objects has moved
+        self.action_rules: dict[int, list[tuple[int, int]]] = {}
         self.expansions = 0
 
     # ---- constraints ----------------------------------------------------------------------
@@ -191,32 +195,43 @@ class GreedyTaskPlanner:
         self._node(prefix).evidence[use] = (bool(value), None)
         return True
 
-    def add_state_rule(self, literal, atoms: Iterable[int]) -> bool:
-        """``literal`` is false in every state where all of ``atoms`` (ids) hold; False (and
-        nothing added) if no precondition or goal uses it, ``atoms`` is empty or the rule is
-        known."""
-        use = _use(literal)
+    def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
+                        objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
+        """Rule ``action`` out wherever all of ``atoms`` (ids) hold and none of ``objects`` has
+        moved (none given: wherever the atoms hold; neither: everywhere). False, and nothing
+        added, if one of ``objects`` moved in ``prefix`` (where the failure was seen: the rule
+        would not hold from the start) or the rule is known."""
+        objs = 0
+        for name in objects:
+            bit = self.object_bit.get(name.lower())
+            if bit is not None:
+                objs |= 1 << bit
+        moved = 0
+        for a in prefix:
+            moved |= self.moves[a.id]
+        if moved & objs:
+            return False
         mask = 0
         for atom in atoms:
             mask |= 1 << atom
-        if use not in self.used or not mask:
+        rules = self.action_rules.setdefault(action.id, [])
+        if (objs, mask) in rules:
             return False
-        rules = self.state_rules.setdefault(use, [])
-        if mask in rules:
-            return False
-        rules.append(mask)
+        rules.append((objs, mask))
+        self.rule_mask |= objs
         return True
 
-    def _known(self, known: dict, moved: int, state: int) -> dict:
-        """The literal values a node knows: its evidence, the blocker rules whose blockers
-        have not moved and the state rules that hold in ``state`` (evidence from the node's
-        own prefix wins)."""
+    def _ruled_out(self, aid: int, state: int, moved: int) -> bool:
+        """Does an action rule rule action ``aid`` out in ``state`` after ``moved``?"""
+        rules = self.action_rules.get(aid)
+        return bool(rules) and any(state & m == m and not moved & o for o, m in rules)
+
+    def _known(self, known: dict, moved: int) -> dict:
+        """The literal values a node knows: its evidence, and the blocker rules whose
+        blockers have not moved (evidence from the node's own prefix wins)."""
         out = {u: v for u, (v, _) in known.items()} if known else {}
         for use, masks in self.rules.items():
             if use not in out and any(not moved & m for m in masks):
-                out[use] = False
-        for use, masks in self.state_rules.items():
-            if use not in out and any(state & m == m for m in masks):
                 out[use] = False
         return out
 
@@ -234,8 +249,10 @@ class GreedyTaskPlanner:
         if trie.excluded:
             return 0
         for k, a in enumerate(plan, start=1):
-            values = self._known(known, moved, state)
+            values = self._known(known, moved)
             if values and not _holds(a.precondition, state, values):
+                return k
+            if self._ruled_out(a.id, state, moved):
                 return k
             trie = trie.children.get(a.id) if trie is not None else None
             if trie is not None and trie.excluded:
@@ -244,7 +261,7 @@ class GreedyTaskPlanner:
             moved |= self.moves[a.id]
             if trie is not None and trie.evidence:
                 known = {**known, **trie.evidence}
-        values = self._known(known, moved, state)
+        values = self._known(known, moved)
         return None if not values or _holds(p.goal.formula, state, values) else len(plan) + 1
 
     def _step(self, known: dict, a: GroundAction) -> dict:
@@ -288,7 +305,7 @@ class GreedyTaskPlanner:
             if key in seen:
                 return False
             seen.add(key)
-            values = self._known(known, moved, state)
+            values = self._known(known, moved)
             node = (state, trie, known, moved, parent, aid, depth, values)
             if depth >= min_steps and _holds(p.goal.formula, state, values):
                 nodes.append(node)
@@ -311,6 +328,8 @@ class GreedyTaskPlanner:
             for a in actions:
                 if not a.pre.holds(state) or (values and
                                               not _holds(a.precondition, state, values)):
+                    continue
+                if self.action_rules and self._ruled_out(a.id, state, moved):
                     continue
                 child = trie.children.get(a.id) if trie is not None else None
                 if child is not None and child.excluded:
@@ -337,7 +356,7 @@ class GreedyTaskPlanner:
 class PortfolioTaskPlanner:
     """The SAT planner while its encoding is small and it answers in time, else the greedy
     planner (see the module docstring). Every constraint goes to both; a SAT plan that breaks
-    one only the greedy planner holds (a blocker or state rule) is excluded in the SAT planner through
+    one only the greedy planner holds (a blocker or action rule) is excluded in the SAT planner through
     the step that breaks it, and the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
@@ -380,10 +399,11 @@ class PortfolioTaskPlanner:
         self.greedy.add_evidence(prefix, literal, value, blockers)
         return used
 
-    def add_state_rule(self, literal, atoms: Iterable[int]) -> bool:
-        """The greedy planner's state rule; SAT plans that break it are excluded as plans that
+    def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
+                        objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
+        """The greedy planner's action rule; SAT plans that break it are excluded as plans that
         break a blocker rule are."""
-        return self.greedy.add_state_rule(literal, atoms)
+        return self.greedy.add_action_rule(prefix, action, objects, atoms)
 
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:

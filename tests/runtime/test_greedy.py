@@ -195,26 +195,40 @@ def test_the_task_planner_option_picks_the_planner(tabletop_world):
         PortfolioTaskPlanner
 
 
-def test_a_state_rule_holds_wherever_its_atoms_do():
-    """A state rule: the literal is false in every state where its atoms all hold, whatever
-    came before; the portfolio excludes SAT plans that break it."""
-    gp = _arm("(on x t2) (lit)")
-    above = GeoLiteral("above", ("m", "t2"), True)
+def test_an_action_rule_holds_where_its_atoms_do_until_its_objects_move():
+    """An action rule rules a ground action out wherever its atoms all hold and none of its
+    objects has moved, whatever came before; none given: everywhere. The portfolio excludes SAT
+    plans that break one."""
+    gp = _arm("(on x t2) (lit)", "x y")
     lit = next(i for i, atom in enumerate(gp.atoms) if atom.predicate == "lit")
     switch = gp.find_action("switch")
     pick, place = gp.find_action("pick", "x", "t1", "m"), gp.find_action("place", "x", "t2", "m")
+    pick_y, place_y = gp.find_action("pick", "y", "t1", "m"), gp.find_action("place", "y", "t2",
+                                                                                 "m")
+    # placing x on t2 is ruled out where (lit) holds
     g = GreedyTaskPlanner(gp)
-    assert g.add_state_rule(above, [lit]) and not g.add_state_rule(above, [lit])
-    assert not g.add_state_rule(above, [])
-    assert not g.add_state_rule(GeoLiteral("unused", ("m",), True), [lit])
+    assert g.add_action_rule([], place, atoms=[lit])
+    assert not g.add_action_rule([], place, atoms=[lit])          # known
     assert g.violation([switch, pick, place]) == 3
     assert g.satisfies([pick, place, switch])
     r = g.next_plan(max_steps=6)
     assert r.solved and r.actions == [pick, place, switch]
     pf = PortfolioTaskPlanner(gp)
-    assert pf.add_state_rule(above, [lit])
+    assert pf.add_action_rule([], place, atoms=[lit])
     r = pf.next_plan(max_steps=6, horizon_cap=1.0)
     assert r.solved and pf.greedy.satisfies(r.actions) and r.actions[-1] is switch
+    # picking x is ruled out until y moves: y first
+    g = GreedyTaskPlanner(gp)
+    assert g.add_action_rule([], pick, objects=["y"])
+    r = g.next_plan(max_steps=8)
+    assert r.solved and r.actions.index(pick_y) < r.actions.index(pick)
+    assert g.violation([pick]) == 1 and g.satisfies([pick_y, place_y, pick, place, switch])
+    # ... not a rule when y had moved where the failure was seen
+    assert not GreedyTaskPlanner(gp).add_action_rule([pick_y, place_y], pick, objects=["y"])
+    # neither atoms nor objects: never
+    g = GreedyTaskPlanner(gp)
+    assert g.add_action_rule([pick_y], place)
+    assert g.next_plan(max_steps=8).status == EXHAUSTED
 
 
 @pytest.fixture(scope="module")
@@ -281,23 +295,38 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     assert not greedy.rules                      # one failure short
     tr.record_failure(mode, p.q0, False, 0.1)
     learn(tasks, [unstack], [tr])
-    assert list(greedy.rules) == [("grasp", (R.lower(), "d"), True)]
+    assert list(greedy.rules) == [("grasp", (R.lower(), "d"), True)]      # the literal's
     assert greedy.violation([unstack]) == 1
     assert greedy.satisfies([gp.find_action("unstack", "d", "b", "l_gripper_tool_frame")])
 
-    # a placement of d on c: every attempt hit the table, none a block
+    # a placement of d on c: every attempt hit the table, none a block (the mode where the
+    # left hand holds d: its attempts' configurations need not hold d there for this)
+    import dataclasses
+
+    import numpy as np
     pick_d = gp.find_action("unstack", "d", "b", "l_gripper_tool_frame")
     held = gp.apply(gp.init, pick_d)
+    holding = dataclasses.replace(mode, held={"d": ("l_gripper_tool_frame", np.eye(4))})
     stack = gp.find_action("stack", "d", "c", "l_gripper_tool_frame")
     tr = Transition(held, stack, gp.apply(held, stack))
     for _ in range(RULE_FAILURES):
-        tr.record_failure(mode, hits["fixed"], True, 0.0)
+        tr.record_failure(holding, hits["fixed"], True, 0.0)
     tasks.anchor_rules([pick_d], tr)
-    use = ("on~means", ("d", "c"), True)
-    assert greedy.state_rules == {use: [1 << atom["(on-surface c table)"]]}
+    assert greedy.action_rules == {stack.id: [(0, 1 << atom["(on-surface c table)"])]}
     assert greedy.violation([pick_d, stack]) == 2
     # ... another block among the collisions: nothing learnt
     fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
-    tr.collided[-1] = (mode, hits["block"])
+    tr.collided[-1] = (holding, hits["block"])
     fresh.anchor_rules([pick_d], tr)
-    assert not fresh.task_planner().greedy.state_rules
+    assert not fresh.task_planner().greedy.action_rules
+    # a placement on a tray never reached: that action is ruled out for good, the other arm's
+    # is not (the literal does not name the hand)
+    put = gp.find_action("putdown", "d", "red-tray", "l_gripper_tool_frame")
+    tr = Transition(held, put, gp.apply(held, put))
+    for _ in range(RULE_FAILURES):
+        tr.record_failure(holding, p.q0, False, 0.3)
+    fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    fresh.anchor_rules([pick_d], tr)
+    g = fresh.task_planner().greedy
+    assert g.action_rules == {put.id: [(0, 0)]} and not g.rules
+    assert g.violation([pick_d, put]) == 2

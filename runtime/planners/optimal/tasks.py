@@ -12,18 +12,22 @@ literal false there. Pinned literals remove every plan that needs them at that p
 first running an action that may change them, not only the excluded prefix.
 
 With a task planner that takes them (the greedy portfolio), a failed transition teaches more
-than its prefix (docs/planning.md, "Rules"). If it collided with movable objects (its
+than its prefix (docs/planning.md, "Anchors and state rules"). If it collided with movable objects (its
 *blockers*), its literals stay false until one of them moves. Otherwise, after at least
 :data:`RULE_FAILURES` failed attempts:
 
-* never reached, its closest attempt a real miss: its literal is false until one of the movable
-  objects it names (the object grasped, the one placed on; not what the hand holds) moves: the
-  *anchors*, blockers of the same kind (Blocks World E's right arm cannot reach `d`);
+* never reached, its closest attempt a real miss: until one of the movable objects its literal
+  names moves (the *anchors*: the object grasped, the one placed on; not what the hand holds),
+  a grasp's literal is false (Blocks World E's right arm cannot reach `d`) and a placement is
+  ruled out (with no anchors, for good: the left arm and the far tray);
 * every kept collision with the scene's fixed objects, none with another movable one (the
-  action's own objects excepted, as for blockers): a placement's
-  literal is false wherever the object it goes on stands on the same stack (a *state rule* over
-  its support chain: Blocks World's ceiling stops every tower of that height on the table,
-  whatever came before).
+  action's own objects excepted, as for blockers): the placement is ruled out wherever the
+  object it goes on stands on the same stack (a *state rule* over its support chain: Blocks
+  World's ceiling stops a tower of that height on the table, however it was built).
+
+A placement's literal (``on~means e d``) does not name the hand, so its rules are the ground
+action's (:meth:`~tmpc.runtime.planners.greedy.GreedyTaskPlanner.add_action_rule`): what one
+arm cannot reach, the other may.
 """
 
 from __future__ import annotations
@@ -187,25 +191,29 @@ class TaskPlans:
 
     def anchor_rules(self, prefix: list, tr: Transition) -> None:
         """What a transition that failed for reasons no movable object explains teaches (the
-        module docstring): never reached, a real miss (:data:`MISS` at its closest): each
-        literal false until one of its anchors moves; every kept collision with the scene's
-        fixed objects and none with a movable one: placements false wherever the support
-        chain of what they go on holds."""
+        module docstring). Never reached, a real miss (:data:`MISS` at its closest): a grasp's
+        literal false until one of its anchors moves; a placement ruled out until one of its
+        anchors moves (none: for good). Every kept collision with the scene's fixed objects and
+        none with another movable one: the placement ruled out wherever the support chain of
+        what it goes on holds. A placement's literal does not name the hand, so its rules are
+        the action's."""
+        tp = self.task_planner()
         held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
         unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
         own = {x.lower() for x in tr.action.args}
         fixed = bool(tr.collided) and all(self._hits(mode, q, own) == "fixed"
                                           for mode, q in tr.collided)
         for lit in tr.action.pre_geometric:
-            anchors = [x for x in lit.args if x.lower() in self.task_planner().movable
-                       and x.lower() not in held]
-            if not lit.positive or not anchors:
+            if not lit.positive:
                 continue
-            if unreached and self.task_planner().add_evidence(prefix, lit, False, anchors):
+            anchors = [x for x in lit.args if x.lower() in tp.movable and x.lower() not in held]
+            placement = lit.predicate.endswith(MEANS)
+            if unreached and (tp.add_action_rule(prefix, tr.action, anchors) if placement else
+                              anchors and tp.add_evidence(prefix, lit, False, anchors)):
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
-            if fixed and lit.predicate.endswith(MEANS):
+            if fixed and placement and anchors:
                 chain = self.support_chain(tr.sym, anchors)
-                if chain and self.task_planner().add_state_rule(lit, chain):
+                if chain and tp.add_action_rule(prefix, tr.action, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
 
     @staticmethod
