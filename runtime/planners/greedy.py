@@ -356,8 +356,8 @@ class GreedyTaskPlanner:
 class PortfolioTaskPlanner:
     """The SAT planner while its encoding is small and it answers in time, else the greedy
     planner (see the module docstring). Every constraint goes to both; a SAT plan that breaks
-    one only the greedy planner holds (a blocker or action rule) is excluded in the SAT planner through
-    the step that breaks it, and the SAT planner asked again."""
+    one only the greedy planner holds (a blocker or an action rule) is excluded in the SAT
+    planner through the step that breaks it, and the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
                  sat_clauses: int = 200_000):

@@ -278,9 +278,9 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     hits = _configurations(p, {
         "fixed": lambda s: "table" in s and not s & {"a", "b", "c", "d"},
         "block": lambda s: "a" in s})
-    assert tasks._hits(mode, hits["fixed"]) == "fixed"
-    assert tasks._hits(mode, hits["block"]) == "movable"
-    assert tasks._hits(mode, hits["block"], {"a"}) != "movable"     # the action's own
+    assert tasks.collisions(mode, hits["fixed"]) == (set(), True)
+    assert "a" in tasks.collisions(mode, hits["block"])[0]
+    assert "a" not in tasks.collisions(mode, hits["block"], {"a"})[0]     # the action's own
 
     R = "r_gripper_tool_frame"
     unstack = gp.find_action("unstack", "d", "b", R)

@@ -12,9 +12,9 @@ literal false there. Pinned literals remove every plan that needs them at that p
 first running an action that may change them, not only the excluded prefix.
 
 With a task planner that takes them (the greedy portfolio), a failed transition teaches more
-than its prefix (docs/planning.md, "Anchors and state rules"). If it collided with movable objects (its
-*blockers*), its literals stay false until one of them moves. Otherwise, after at least
-:data:`RULE_FAILURES` failed attempts:
+than its prefix (docs/planning.md, "Anchors and state rules"). If it collided with movable
+objects (its *blockers*), its literals stay false until one of them moves. Otherwise, after at
+least :data:`RULE_FAILURES` failed attempts:
 
 * never reached, its closest attempt a real miss: until one of the movable objects its literal
   names moves (the *anchors*: the object grasped, the one placed on; not what the hand holds),
@@ -38,11 +38,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tmpc.runtime.planners.optimal.options import OptimalOptions
+from tmpc.lang.semantics_module import MEANS_SUFFIX as MEANS
 from tmpc.runtime.planners.greedy import PortfolioTaskPlanner
+from tmpc.runtime.planners.optimal.options import OptimalOptions
 from tmpc.runtime.planners.taskplan import SOLVED, TaskPlanner
 from tmpc.runtime.problem import Mode, PlanningProblem
-
 
 #: collided attempts a transition keeps for its blockers
 KEEP_COLLIDED = 4
@@ -50,8 +50,6 @@ KEEP_COLLIDED = 4
 #: rule: two of the decoupled planner's steps of 3 rounds of 16 projections (one unlucky step,
 #: 1 in 12 for Blocks World E's left-arm grasp of `d`, must not rule a grasp out for good)
 RULE_FAILURES = 96
-#: the suffix of the hidden geometric predicate that gives a symbolic one its meaning
-MEANS = "~means"
 #: a never-reached transition's closest attempt this far (its distance) is a real miss, not a
 #: projection that ran out of iterations
 MISS = 0.02
@@ -201,8 +199,8 @@ class TaskPlans:
         held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
         unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
         own = {x.lower() for x in tr.action.args}
-        fixed = bool(tr.collided) and all(self._hits(mode, q, own) == "fixed"
-                                          for mode, q in tr.collided)
+        fixed = bool(tr.collided) and all(hit == (set(), True) for hit in (
+            self.collisions(mode, q, own) for mode, q in tr.collided))
         for lit in tr.action.pre_geometric:
             if not lit.positive:
                 continue
@@ -218,31 +216,35 @@ class TaskPlans:
 
     @staticmethod
     def _modes(tr: Transition) -> list[Mode]:
+        """The modes of ``tr``'s kept attempts."""
         modes = [mode for mode, _ in tr.collided]
         if tr.best_fail is not None:
             modes.append(tr.best_fail[1])
         return modes
 
-    def _hits(self, mode: Mode, q: np.ndarray, own=frozenset()) -> str:
-        """What the configuration ``q`` in ``mode`` collides with, ``own`` objects (the
-        action's) and what is held excepted: ``movable`` (an object some action moves), else
-        ``fixed`` (an object none moves), else ``robot`` (only itself)."""
+    def collisions(self, mode: Mode, q: np.ndarray, own=frozenset()) -> tuple[set[str], bool]:
+        """What the configuration ``q`` in ``mode`` collides with, ``own`` objects (lower-case:
+        the action's) and what the robot holds excepted: the movable objects (ones some action
+        moves: the task planner's ``movable``) it hits, and whether it hits an object none
+        moves (a robot link against itself is neither)."""
         movable = self.task_planner().movable
-        held = {h.lower() for h in (mode.held or {})} | set(own)
-        kind = "robot"
+        skip = {h.lower() for h in (mode.held or {})} | set(own)
+        hit, fixed = set(), False
         for a, b, _ in self.p.collision.check(q, poses=mode.poses, attached=mode.held).pairs:
             for x in (a, b):
-                if x not in mode.poses or x.lower() in held:
+                if x not in mode.poses or x.lower() in skip:
                     continue
                 if x.lower() in movable:
-                    return "movable"
-                kind = "fixed"
-        return kind
+                    hit.add(x.lower())
+                else:
+                    fixed = True
+        return hit, fixed
 
     def support_chain(self, sym: int, objects: list[str]) -> list[int]:
         """The atoms of state ``sym`` that say what ``objects`` stand on, down to the scene's
         fixed objects: ``(P x y)`` with a placement meaning (a ``P~means``), then y's."""
         g = self.p.ground
+        movable = self.task_planner().movable
         if self._placing is None:
             self._placing = {lit.predicate[:-len(MEANS)] for a in g.actions
                              for lit in a.pre_geometric if lit.predicate.endswith(MEANS)}
@@ -257,25 +259,18 @@ class TaskPlans:
                 if (sym >> i) & 1 and atom.predicate in self._placing and atom.args and \
                         atom.args[0].lower() == x:
                     out.append(i)
-                    todo += [y.lower() for y in atom.args[1:] if y.lower() in self.task_planner().movable]
+                    todo += [y.lower() for y in atom.args[1:] if y.lower() in movable]
         return out
 
     def blockers(self, tr: Transition) -> list[str]:
         """The movable objects (ones some action moves: the portfolio's ``movable``) that
         ``tr``'s collided attempts hit, the action's own arguments and what the robot holds
-        excepted; empty if any of those attempts also hit something that never moves (then
-        moving objects may not help)."""
-        movable = self.task_planner().movable
+        excepted (:meth:`collisions`); empty if one of those attempts hit none (then moving
+        objects may not help)."""
         out: set[str] = set()
         own = {x.lower() for x in tr.action.args}
         for mode, q in tr.collided:
-            held = {h.lower() for h in (mode.held or {})}
-            rep = self.p.collision.check(q, poses=mode.poses, attached=mode.held)
-            hit = set()
-            for a, b, _ in rep.pairs:
-                for x in (a.lower(), b.lower()):
-                    if x in movable and x not in own and x not in held:
-                        hit.add(x)
+            hit, _ = self.collisions(mode, q, own)
             if not hit:
                 return []
             out |= hit
