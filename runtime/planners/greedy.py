@@ -371,6 +371,8 @@ class PortfolioTaskPlanner:
         #: 28 x 13,529 clauses, 12 s in a check capped at 1 s)
         self.sat_clauses = sat_clauses
         self.sat_stalled = False
+        #: Z3 raised outside a check: the SAT planner is no longer asked (:meth:`_sat_call`)
+        self.sat_broken = False
         #: consecutive calls the SAT planner ran out of its budget; at ``max_misses`` it is
         #: no longer asked
         self.sat_misses = 0
@@ -382,9 +384,23 @@ class PortfolioTaskPlanner:
     def movable(self) -> frozenset[str]:
         return self.greedy.movable
 
+    def _sat_call(self, fn, *args, **kwargs):
+        """``fn(*args, **kwargs)`` of the SAT planner; None, and the SAT planner not asked again,
+        if Z3 raised (an interrupt landing outside a check: its state may lack a constraint,
+        and the greedy planner holds them all)."""
+        if self.sat_broken:
+            return None
+        try:
+            return fn(*args, **kwargs)
+        except Exception as e:          # z3.Z3Exception; z3 is imported by the SAT planner
+            if type(e).__name__ != "Z3Exception":
+                raise
+            self.sat_broken = self.sat_stalled = True
+            return None
+
     def exclude_prefix(self, prefix: Iterable[GroundAction]) -> None:
         prefix = list(prefix)
-        self.sat.exclude_prefix(prefix)
+        self._sat_call(self.sat.exclude_prefix, prefix)
         self.greedy.exclude_prefix(prefix)
 
     #: :meth:`add_evidence` takes ``blockers`` (the SAT planner's copy keeps the evidence
@@ -395,9 +411,8 @@ class PortfolioTaskPlanner:
     def add_evidence(self, prefix: Iterable[GroundAction], literal, value: bool,
                      blockers: Iterable[str] | None = None) -> bool:
         prefix = list(prefix)
-        used = self.sat.add_evidence(prefix, literal, value)
-        self.greedy.add_evidence(prefix, literal, value, blockers)
-        return used
+        used = self._sat_call(self.sat.add_evidence, prefix, literal, value)
+        return self.greedy.add_evidence(prefix, literal, value, blockers) or bool(used)
 
     def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
                         objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
@@ -419,8 +434,9 @@ class PortfolioTaskPlanner:
             while True:
                 before = len(self.sat.stats)
                 left = budget - (time.perf_counter() - t0)
-                res = self.sat.next_plan(max_steps, max(0.0, left), min_steps, horizon_cap) \
-                    if left > 0 else PlanResult(TIMEOUT, None, 0)
+                res = self._sat_call(self.sat.next_plan, max_steps, max(0.0, left), min_steps,
+                                     horizon_cap) if left > 0 else None
+                res = res or PlanResult(TIMEOUT, None, 0)
                 if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
                     self.sat_stalled = True
                 if res.status != SOLVED:
@@ -433,9 +449,11 @@ class PortfolioTaskPlanner:
                 # a plan the SAT planner's weaker constraints let through: teach it the
                 # prefix (or, for the goal, the plan) that breaks a blocker rule, and ask again
                 if k > len(res.actions):
-                    self.sat.exclude_plan(res.actions)
+                    self._sat_call(self.sat.exclude_plan, res.actions)
                 else:
-                    self.sat.exclude_prefix(res.actions[:k])
+                    self._sat_call(self.sat.exclude_prefix, res.actions[:k])
+                if self.sat_broken:
+                    break
             if res.status in (EXHAUSTED, UNREACHABLE):
                 return res
             self.sat_misses += 1                      # a timeout

@@ -136,8 +136,8 @@ def test_the_portfolio_keeps_shortest_plans_and_the_greedy_constraints():
 
 def test_blockers_are_the_movable_objects_a_collided_attempt_hit(tabletop_world):
     """TaskPlans.blockers on the tabletop (a Panda, two cubes): a configuration that hits the
-    blue cube makes the blue cube the red cube's blocker; the action's own object, and a
-    configuration hitting only what never moves, are no blockers."""
+    blue cube and nothing else makes the blue cube the red cube's blocker; the action's own
+    object, and a configuration that also hits what never moves, are no blockers."""
     import numpy as np
 
     from tmpc.runtime.planners.optimal import OptimalOptions
@@ -147,30 +147,39 @@ def test_blockers_are_the_movable_objects_a_collided_attempt_hit(tabletop_world)
     p = PlanningProblem(tabletop_world)
     mode = p.initial
     rng = np.random.default_rng(0)
-    hits: dict[frozenset, np.ndarray] = {}
-    for q in p.uniform(rng, 3000):
-        names = frozenset(x for a, b, _ in p.collision.check(q, poses=mode.poses,
-                                                            attached=mode.held).pairs
-                          for x in (a, b))
-        if "blue_cube" in names and "red_cube" not in names:
-            hits.setdefault("blue", q)
-        if names and not names & {"blue_cube", "red_cube"}:
-            hits.setdefault("static", q)
-        if len(hits) == 2:
+    # the blue cube also 25 cm up, in the air: configurations that hit it and nothing else
+    lifted = np.array(mode.poses["blue_cube"])
+    lifted[2, 3] += 0.25
+    air = p.make_mode(1, mode.sym, {**mode.poses, "blue_cube": lifted}, mode.held)
+    hits: dict[str, np.ndarray] = {}
+    for q in p.uniform(rng, 4000):
+        for key, m in (("", mode), ("air ", air)):
+            names = {x for a, b, _ in p.collision.check(q, poses=m.poses, attached=m.held).pairs
+                     for x in (a, b) if x in m.poses}
+            if key and names == {"blue_cube"}:
+                hits.setdefault("blue", q)
+            if not key and "blue_cube" in names and "red_cube" not in names and len(names) > 1:
+                hits.setdefault("blue+static", q)
+            if not key and names and not names & {"blue_cube", "red_cube"}:
+                hits.setdefault("static", q)
+        if len(hits) == 3:
             break
-    assert set(hits) == {"blue", "static"}, "no such configurations among the samples"
+    assert set(hits) == {"blue", "blue+static", "static"}, "no such configurations"
     tasks = TaskPlans(p, OptimalOptions(first_solution=True), {})
     gp = p.ground
     pick_red = next(a for a in gp.actions if a.kinematic and "red_cube" in a.args)
     pick_blue = next(a for a in gp.actions if a.kinematic and "blue_cube" in a.args
                      and a.schema == pick_red.schema)
     tr = Transition(gp.init, pick_red, gp.init)
-    tr.record_failure(mode, hits["blue"], True, 0.0)
-    assert tasks.blockers(tr) == ["blue_cube"]
-    tr.record_failure(mode, hits["static"], True, 0.0)        # ... and one that hit the bench
+    tr.record_failure(mode, hits["static"], True, 0.0)        # only the bench: no blocker
+    tr.record_failure(mode, hits["blue+static"], True, 0.0)   # moving blue would not free it
     assert tasks.blockers(tr) == []
+    tr.record_failure(air, hits["blue"], True, 0.0)
+    assert tasks.blockers(tr) == ["blue_cube"]
+    tr.record_failure(mode, hits["static"], True, 0.0)        # ... the blue one stays one
+    assert tasks.blockers(tr) == ["blue_cube"]
     own = Transition(gp.init, pick_blue, gp.init)
-    own.record_failure(mode, hits["blue"], True, 0.0)
+    own.record_failure(air, hits["blue"], True, 0.0)
     assert tasks.blockers(own) == []
 
 
@@ -330,3 +339,29 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     g = fresh.task_planner().greedy
     assert g.action_rules == {put.id: [(0, 0)]} and not g.rules
     assert g.violation([pick_d, put]) == 2
+
+
+def test_a_z3_exception_in_the_sat_planner_leaves_the_greedy_planner_to_answer():
+    """Z3 raises "canceled" where an interrupt lands outside a check (a Hanoi 6 run crashed on
+    one): the portfolio takes it as a timeout, asks the SAT planner no more and keeps every
+    constraint in the greedy planner."""
+    import z3
+
+    gp = _arm("(on x t2)", "x y")
+    pf = PortfolioTaskPlanner(gp)
+
+    def canceled(*args, **kwargs):
+        raise z3.Z3Exception("canceled")
+    pf.sat.next_plan = canceled
+    r = pf.next_plan(max_steps=6, horizon_cap=1.0)
+    assert r.solved and pf.sat_broken and pf.answers == {"greedy": 1, "sat": 0}
+    pf.sat.exclude_prefix = canceled
+    pf.exclude_prefix(r.actions[:1])                      # no exception, and the greedy ...
+    assert pf.next_plan(max_steps=6).actions[:1] != r.actions[:1]    # ... planner keeps it
+
+    def other(*args, **kwargs):
+        raise ValueError("a bug")
+    pf = PortfolioTaskPlanner(gp)
+    pf.sat.next_plan = other
+    with pytest.raises(ValueError):
+        pf.next_plan(max_steps=6, horizon_cap=1.0)
