@@ -436,7 +436,8 @@ class PortfolioTaskPlanner:
                 left = budget - (time.perf_counter() - t0)
                 res = self._sat_call(self.sat.next_plan, max_steps, max(0.0, left), min_steps,
                                      horizon_cap) if left > 0 else None
-                res = res or PlanResult(TIMEOUT, None, 0)
+                if res is None:                       # no time left, or Z3 raised
+                    res = PlanResult(TIMEOUT, None, 0)
                 if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
                     self.sat_stalled = True
                 if res.status != SOLVED:
