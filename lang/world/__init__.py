@@ -3,6 +3,7 @@ registry, run configurations, URDF robots, rotations (pure Python) and the small
 share.
 """
 
+from tmpc.lang.world.configs import PARAM_CHOICES as PARAM_CHOICES
 from tmpc.lang.world.configs import is_run_config as is_run_config
 from tmpc.lang.world.configs import load_config as load_config
 from tmpc.lang.world.configs import load_config_scene as load_config_scene

@@ -40,8 +40,9 @@ from tmpc.lang.world.loaders import (
 )
 from tmpc.lang.world.scene import LEGACY_TOLERANCES, RunConfig, Scene
 
-__all__ = ["CONFIG_LOADERS", "PLANNER_PARAMS", "PLANET_PARAMS", "detect_config_format",
-           "load_config", "load_config_scene", "load_planet_params", "rename_scene"]
+__all__ = ["CONFIG_LOADERS", "PARAM_CHOICES", "PLANNER_PARAMS", "PLANET_PARAMS",
+           "detect_config_format", "load_config", "load_config_scene", "load_planet_params",
+           "rename_scene"]
 
 #: planner parameters a native manifest may set under [planner]: name -> (type, meaning).
 #: Planners read the ones they use; planet's come from its params TOML, tmit-star's from the spec.
@@ -383,17 +384,17 @@ def _positive(r: Reader, key: str, x: float) -> float:
 _AT_MOST = {"coin_bias": 1.0}
 
 
-#: parameters that name one of a few choices
-_CHOICES = {"task_planner": ("auto", "sat", "greedy")}
+#: parameters that name one of a few choices (the planners check the same tuples)
+PARAM_CHOICES = {"task_planner": ("auto", "sat", "greedy")}
 
 
 def _param(r: TomlReader, key: str, value: Any, typ: type) -> object:
     v = r.expect(key, value, typ)
     name = key.rpartition(".")[2]
     if typ is str:
-        if v not in _CHOICES.get(name, (v,)):
+        if v not in PARAM_CHOICES.get(name, (v,)):
             r.fail("E512", r.span(key), f"{key}: must be one of "
-                   f"{', '.join(_CHOICES[name])}, found {v!r}")
+                   f"{', '.join(PARAM_CHOICES[name])}, found {v!r}")
         return v
     high = _AT_MOST.get(name)
     if not math.isfinite(v) or v < 0 or (high is not None and v > high):

@@ -173,16 +173,9 @@ class GreedyTaskPlanner:
             return False
         prefix = list(prefix)
         if blockers is not None and not value:
-            mask = 0
-            for b in blockers:
-                bit = self.object_bit.get(b.lower())
-                if bit is not None:
-                    mask |= 1 << bit
+            mask = self._object_mask(blockers)
             if mask:
-                moved = 0
-                for a in prefix:
-                    moved |= self.moves[a.id]
-                if not moved & mask:
+                if not self._moved(prefix) & mask:
                     rules = self.rules.setdefault(use, [])
                     if mask not in rules:
                         rules.append(mask)
@@ -201,15 +194,8 @@ class GreedyTaskPlanner:
         moved (none given: wherever the atoms hold; neither: everywhere). False, and nothing
         added, if one of ``objects`` moved in ``prefix`` (where the failure was seen: the rule
         would not hold from the start) or the rule is known."""
-        objs = 0
-        for name in objects:
-            bit = self.object_bit.get(name.lower())
-            if bit is not None:
-                objs |= 1 << bit
-        moved = 0
-        for a in prefix:
-            moved |= self.moves[a.id]
-        if moved & objs:
+        objs = self._object_mask(objects)
+        if self._moved(prefix) & objs:
             return False
         mask = 0
         for atom in atoms:
@@ -220,6 +206,22 @@ class GreedyTaskPlanner:
         rules.append((objs, mask))
         self.rule_mask |= objs
         return True
+
+    def _object_mask(self, names: Iterable[str]) -> int:
+        """The bit mask of the movable objects among ``names``."""
+        mask = 0
+        for name in names:
+            bit = self.object_bit.get(name.lower())
+            if bit is not None:
+                mask |= 1 << bit
+        return mask
+
+    def _moved(self, prefix: Iterable[GroundAction]) -> int:
+        """The bit mask of the objects ``prefix`` moves."""
+        moved = 0
+        for a in prefix:
+            moved |= self.moves[a.id]
+        return moved
 
     def _ruled_out(self, aid: int, state: int, moved: int) -> bool:
         """Does an action rule rule action ``aid`` out in ``state`` after ``moved``?"""
@@ -392,9 +394,7 @@ class PortfolioTaskPlanner:
             return None
         try:
             return fn(*args, **kwargs)
-        except Exception as e:          # z3.Z3Exception; z3 is imported by the SAT planner
-            if type(e).__name__ != "Z3Exception":
-                raise
+        except self.sat.z3.Z3Exception:
             self.sat_broken = self.sat_stalled = True
             return None
 

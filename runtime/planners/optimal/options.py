@@ -15,11 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tmpc.lang.world import PARAM_CHOICES
 from tmpc.runtime.problem import Mode
 
 
-#: the values of ``OptimalOptions.task_planner``
-TASK_PLANNERS = ("auto", "sat", "greedy")
+#: the values of ``OptimalOptions.task_planner`` (a manifest's ``[planner] task_planner``)
+TASK_PLANNERS = PARAM_CHOICES["task_planner"]
 
 
 @dataclass(frozen=True)

@@ -179,30 +179,30 @@ class TaskPlans:
             if not tr.successes and getattr(self.tp, "takes_blockers", False):
                 # the precondition held but configurations collided with movable objects
                 # alone: the literals stay false until one of those moves
-                blockers = self.blockers(tr)
+                hits = self.attempt_hits(tr)
+                blockers = self.blockers(tr, hits)
                 if blockers:
                     for lit in tr.action.pre_geometric:
                         if self.tp.add_evidence(plan[:i], lit, False, blockers):
                             self.counts["blockers"] = self.counts.get("blockers", 0) + 1
                 elif tr.failures >= RULE_FAILURES:
-                    self.anchor_rules(plan[:i], tr)
+                    self.anchor_rules(plan[:i], tr, hits)
         self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
         self.plan = None
 
-    def anchor_rules(self, prefix: list, tr: Transition) -> None:
+    def anchor_rules(self, prefix: list, tr: Transition, hits: list | None = None) -> None:
         """What a transition that failed for reasons no movable object explains teaches (the
         module docstring). Never reached, a real miss (:data:`MISS` at its closest): a grasp's
         literal false until one of its anchors moves; a placement ruled out until one of its
         anchors moves (none: for good). Every kept collision with the scene's fixed objects and
         none with another movable one: the placement ruled out wherever the support chain of
         what it goes on holds. A placement's literal does not name the hand, so its rules are
-        the action's."""
+        the action's. ``hits``: :meth:`attempt_hits` of ``tr``, if known."""
         tp = self.task_planner()
         held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
         unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
-        own = {x.lower() for x in tr.action.args}
-        fixed = bool(tr.collided) and all(hit == (set(), True) for hit in (
-            self.collisions(mode, q, own) for mode, q in tr.collided))
+        hits = self.attempt_hits(tr) if hits is None else hits
+        fixed = bool(hits) and all(hit == (set(), True) for hit in hits)
         for lit in tr.action.pre_geometric:
             if not lit.positive:
                 continue
@@ -264,16 +264,21 @@ class TaskPlans:
                     todo += [y.lower() for y in atom.args[1:] if y.lower() in movable]
         return out
 
-    def blockers(self, tr: Transition) -> list[str]:
+    def attempt_hits(self, tr: Transition) -> list[tuple[set[str], bool]]:
+        """:meth:`collisions` of each of ``tr``'s kept collided attempts, the action's own
+        objects excepted."""
+        own = {x.lower() for x in tr.action.args}
+        return [self.collisions(mode, q, own) for mode, q in tr.collided]
+
+    def blockers(self, tr: Transition, hits: list | None = None) -> list[str]:
         """The movable objects (ones some action moves: the portfolio's ``movable``) that
         ``tr``'s collided attempts hit where they hit nothing else, the action's own arguments
         and what the robot holds excepted (:meth:`collisions`): the attempts that moving those
         objects would make valid. An attempt that also hit an object none moves says nothing
-        about them (a grasp from behind a kitchen cabbage hits the shelf's back)."""
+        about them (a grasp from behind a kitchen cabbage hits the shelf's back). ``hits``:
+        :meth:`attempt_hits` of ``tr``, if known."""
         out: set[str] = set()
-        own = {x.lower() for x in tr.action.args}
-        for mode, q in tr.collided:
-            hit, fixed = self.collisions(mode, q, own)
+        for hit, fixed in self.attempt_hits(tr) if hits is None else hits:
             if not fixed:
                 out |= hit
         return sorted(out)
