@@ -146,25 +146,14 @@ def test_blockers_are_the_movable_objects_a_collided_attempt_hit(tabletop_world)
 
     p = PlanningProblem(tabletop_world)
     mode = p.initial
-    rng = np.random.default_rng(0)
     # the blue cube also 25 cm up, in the air: configurations that hit it and nothing else
     lifted = np.array(mode.poses["blue_cube"])
     lifted[2, 3] += 0.25
     air = p.make_mode(1, mode.sym, {**mode.poses, "blue_cube": lifted}, mode.held)
-    hits: dict[str, np.ndarray] = {}
-    for q in p.uniform(rng, 4000):
-        for key, m in (("", mode), ("air ", air)):
-            names = {x for a, b, _ in p.collision.check(q, poses=m.poses, attached=m.held).pairs
-                     for x in (a, b) if x in m.poses}
-            if key and names == {"blue_cube"}:
-                hits.setdefault("blue", q)
-            if not key and "blue_cube" in names and "red_cube" not in names and len(names) > 1:
-                hits.setdefault("blue+static", q)
-            if not key and names and not names & {"blue_cube", "red_cube"}:
-                hits.setdefault("static", q)
-        if len(hits) == 3:
-            break
-    assert set(hits) == {"blue", "blue+static", "static"}, "no such configurations"
+    hits = _configurations(p, {"blue": lambda s: s == {"blue_cube"}}, air)
+    hits |= _configurations(p, {
+        "blue+static": lambda s: "blue_cube" in s and "red_cube" not in s and len(s) > 1,
+        "static": lambda s: not s & {"blue_cube", "red_cube"}})
     tasks = TaskPlans(p, OptimalOptions(first_solution=True), {})
     gp = p.ground
     pick_red = next(a for a in gp.actions if a.kinematic and "red_cube" in a.args)
@@ -250,16 +239,16 @@ def blocks_d():
     return PlanningProblem(open_world(root / "examples/lagriffoul/blocks-D/run.toml"))
 
 
-def _configurations(p, want: dict, n: int = 4000):
-    """Uniform configurations of ``p``'s initial mode by what they collide with: ``want``
-    maps a name to a test of the set of names a configuration's collisions involve."""
+def _configurations(p, want: dict, mode=None, n: int = 4000):
+    """Uniform configurations of ``mode`` (``p``'s initial one) by what they collide with:
+    ``want`` maps a name to a test of the set of scene objects a configuration hits."""
     import numpy as np
-    mode = p.initial
+    mode = p.initial if mode is None else mode
     found = {}
     for q in p.uniform(np.random.default_rng(0), n):
         names = frozenset(x for a, b, _ in p.collision.check(q, poses=mode.poses,
                                                             attached=mode.held).pairs
-                          for x in (a, b))
+                          for x in (a, b) if x in mode.poses)
         for key, test in want.items():
             if key not in found and names and test(names):
                 found[key] = q
