@@ -20,7 +20,10 @@ SAT encoding's meaning of the constraints (:mod:`tmpc.compiler.smt.encode`):
 
 Evidence may also name its *blockers* (the movable objects a failed transition collided with):
 it then lasts until one of them moves, and if none of them had moved in its prefix it holds in
-every plan while none has moved (a blocker rule; docs/planning.md).
+every plan while none has moved (a blocker rule; docs/planning.md). An *atom rule* makes a
+literal false wherever a set of atoms holds, whatever came before: blockers that were moved
+away and put back where they stood block again (a kitchen's radish taken off its spot and put
+back before the cabbage behind it is picked).
 
 An *action rule* rules one ground action out wherever a set of atoms holds and none of a set
 of objects has moved yet, whatever came before: a placement never reached (the left arm and
@@ -51,13 +54,18 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from typing import Iterable
+from collections.abc import Iterable
 
-from tmpc.compiler.ground import (GAnd, GAtom, GGeo, GNot, GOr, GroundAction, GroundProblem,
-                                  GTrue)
+from tmpc.compiler.ground import GAnd, GAtom, GGeo, GNot, GOr, GroundAction, GroundProblem, GTrue
 from tmpc.runtime.planners.heuristic import FFHeuristic
-from tmpc.runtime.planners.taskplan import (EXHAUSTED, SOLVED, TIMEOUT, UNREACHABLE,
-                                            PlanResult, TaskPlanner)
+from tmpc.runtime.planners.taskplan import (
+    EXHAUSTED,
+    SOLVED,
+    TIMEOUT,
+    UNREACHABLE,
+    PlanResult,
+    TaskPlanner,
+)
 
 #: a literal use: (predicate, args, positive), names lower-cased
 Use = tuple[str, tuple[str, ...], bool]
@@ -104,7 +112,7 @@ def _uses(f, out: set) -> None:
 class _Prefix:
     """A node of the trie of constrained prefixes."""
 
-    __slots__ = ("children", "excluded", "evidence")
+    __slots__ = ("children", "evidence", "excluded")
 
     def __init__(self) -> None:
         self.children: dict[int, _Prefix] = {}
@@ -144,6 +152,8 @@ class GreedyTaskPlanner:
         #: blocker rules: use -> [mask of objects]; the use is false while none of them moved
         self.rules: dict[Use, list[int]] = {}
         self.rule_mask = 0
+        #: atom rules: use -> [mask of atoms]; the use is false wherever all the atoms hold
+        self.atom_rules: dict[Use, list[int]] = {}
         #: action rules: action id -> [(mask of objects, mask of atoms)]; the action is ruled
         #: out where all the atoms hold and none of the objects has moved
         self.action_rules: dict[int, list[tuple[int, int]]] = {}
@@ -188,6 +198,27 @@ class GreedyTaskPlanner:
         self._node(prefix).evidence[use] = (bool(value), None)
         return True
 
+    def add_atom_rule(self, literal, atoms: Iterable[int]) -> bool:
+        """The geometric ``literal`` is false wherever all of ``atoms`` (ids, at least one)
+        hold, whatever came before; False, and nothing added, if no precondition or goal uses
+        it or the rule is known."""
+        use = _use(literal)
+        mask = 0
+        for atom in atoms:
+            mask |= 1 << atom
+        if use not in self.used or not mask:
+            return False
+        rules = self.atom_rules.setdefault(use, [])
+        if mask in rules:
+            return False
+        rules.append(mask)
+        return True
+
+    def moved(self, prefix: Iterable[GroundAction]) -> set[str]:
+        """The movable objects (lower-case) ``prefix`` moves."""
+        mask = self._moved(prefix)
+        return {name for name, bit in self.object_bit.items() if mask >> bit & 1}
+
     def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
                         objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
         """Rule ``action`` out wherever all of ``atoms`` (ids) hold and none of ``objects`` has
@@ -228,12 +259,16 @@ class GreedyTaskPlanner:
         rules = self.action_rules.get(aid)
         return bool(rules) and any(state & m == m and not moved & o for o, m in rules)
 
-    def _known(self, known: dict, moved: int) -> dict:
-        """The literal values a node knows: its evidence, and the blocker rules whose
-        blockers have not moved (evidence from the node's own prefix wins)."""
+    def _known(self, known: dict, moved: int, state: int) -> dict:
+        """The literal values a node knows: its evidence, the blocker rules whose blockers
+        have not moved and the atom rules whose atoms hold in ``state`` (evidence from the
+        node's own prefix wins)."""
         out = {u: v for u, (v, _) in known.items()} if known else {}
         for use, masks in self.rules.items():
             if use not in out and any(not moved & m for m in masks):
+                out[use] = False
+        for use, masks in self.atom_rules.items():
+            if use not in out and any(state & m == m for m in masks):
                 out[use] = False
         return out
 
@@ -251,7 +286,7 @@ class GreedyTaskPlanner:
         if trie.excluded:
             return 0
         for k, a in enumerate(plan, start=1):
-            values = self._known(known, moved)
+            values = self._known(known, moved, state)
             if values and not _holds(a.precondition, state, values):
                 return k
             if self._ruled_out(a.id, state, moved):
@@ -263,7 +298,7 @@ class GreedyTaskPlanner:
             moved |= self.moves[a.id]
             if trie is not None and trie.evidence:
                 known = {**known, **trie.evidence}
-        values = self._known(known, moved)
+        values = self._known(known, moved, state)
         return None if not values or _holds(p.goal.formula, state, values) else len(plan) + 1
 
     def _step(self, known: dict, a: GroundAction) -> dict:
@@ -307,7 +342,7 @@ class GreedyTaskPlanner:
             if key in seen:
                 return False
             seen.add(key)
-            values = self._known(known, moved)
+            values = self._known(known, moved, state)
             node = (state, trie, known, moved, parent, aid, depth, values)
             if depth >= min_steps and _holds(p.goal.formula, state, values):
                 nodes.append(node)
@@ -413,6 +448,14 @@ class PortfolioTaskPlanner:
         prefix = list(prefix)
         used = self._sat_call(self.sat.add_evidence, prefix, literal, value)
         return self.greedy.add_evidence(prefix, literal, value, blockers) or bool(used)
+
+    def add_atom_rule(self, literal, atoms: Iterable[int]) -> bool:
+        """The greedy planner's atom rule; SAT plans that break it are excluded as plans that
+        break a blocker rule are."""
+        return self.greedy.add_atom_rule(literal, atoms)
+
+    def moved(self, prefix: Iterable[GroundAction]) -> set[str]:
+        return self.greedy.moved(prefix)
 
     def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
                         objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:

@@ -354,3 +354,89 @@ def test_a_z3_exception_in_the_sat_planner_leaves_the_greedy_planner_to_answer()
     pf.sat.next_plan = other
     with pytest.raises(ValueError):
         pf.next_plan(max_steps=6, horizon_cap=1.0)
+
+
+def test_an_atom_rule_makes_a_literal_false_wherever_its_atoms_hold():
+    """An atom rule: the literal is false wherever its atoms all hold, whatever came before (a
+    blocker put back where it stood blocks again); the portfolio excludes SAT plans that
+    break one."""
+    gp = _arm("(on x t2)", "x y")
+    at = GeoLiteral("at", ("m", "x"), True)
+    y_on_t1 = next(i for i, atom in enumerate(gp.atoms) if gp.atom_name(i) == "(on y t1)")
+    pick, place = gp.find_action("pick", "x", "t1", "m"), gp.find_action("place", "x", "t2", "m")
+    pick_y = gp.find_action("pick", "y", "t1", "m")
+    y_back, y_away = gp.find_action("place", "y", "t1", "m"), gp.find_action("place", "y", "t2",
+                                                                            "m")
+    g = GreedyTaskPlanner(gp)
+    assert not g.add_atom_rule(at, [])                       # no atoms: no rule
+    assert g.add_atom_rule(at, [y_on_t1])
+    assert not g.add_atom_rule(at, [y_on_t1])                # known
+    assert not g.add_atom_rule(GeoLiteral("nowhere", ("m",), True), [y_on_t1])   # unused
+    assert g.moved([pick_y, y_back]) == {"y"} and g.moved([]) == set()
+    # moved and put back: y blocks again; moved away: x may go
+    assert g.violation([pick]) == 1
+    assert g.violation([pick_y, y_back, pick]) == 3
+    assert g.satisfies([pick_y, y_away, pick, place])
+    r = g.next_plan(max_steps=8)
+    assert r.solved and simulate(gp, r.actions)[0] and y_away in r.actions
+    assert r.actions.index(y_away) < r.actions.index(pick)
+    pf = PortfolioTaskPlanner(gp)
+    assert pf.add_atom_rule(at, [y_on_t1]) and pf.moved([pick_y]) == {"y"}
+    r = pf.next_plan(max_steps=8, horizon_cap=1.0)
+    assert r.solved and pf.greedy.satisfies(r.actions) and y_away in r.actions
+
+
+def test_a_blocker_put_back_where_it_stood_blocks_there_again(blocks_d):
+    """TaskPlans.put_back on Blocks World D: blockers that stand where they stood at the start
+    (their placement atoms, their positions within PUT_BACK), one of them having moved in the
+    prefix, give the atoms of their support chains; none moved, one elsewhere or 2 cm off:
+    none. learn() turns the first into an atom rule on the literal."""
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import PUT_BACK, TaskPlans, Transition
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    R = "r_gripper_tool_frame"
+    pick_c = gp.find_action("pickup", "c", "table", R)
+    back, away = (gp.find_action("putdown", "c", s, R) for s in ("table", "red-tray"))
+    unstack = gp.find_action("unstack", "d", "b", R)
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+
+    def attempt(prefix, shift=0.0):
+        sym = gp.init
+        for a in prefix:
+            sym = gp.apply(sym, a)
+        poses = dict(mode.poses)
+        c = np.array(poses["c"])
+        c[0, 3] += shift
+        poses["c"] = c
+        tr = Transition(sym, unstack, gp.apply(sym, unstack))
+        tr.record_failure(p.make_mode(1, sym, poses, mode.held), p.q0, True, 0.0)
+        return tr
+
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
+    assert tasks.put_back([pick_c, back], attempt([pick_c, back]), ["c"]) == \
+        [atom["(on-surface c table)"]]
+    assert tasks.put_back([pick_c, back], attempt([pick_c, back], PUT_BACK / 2), ["c"])
+    assert tasks.put_back([pick_c, back], attempt([pick_c, back], 0.02), ["c"]) == []
+    assert tasks.put_back([], attempt([]), ["c"]) == []                    # never moved
+    # with a blocker that never moved (d stands where it stood): both chains
+    assert sorted(tasks.put_back([pick_c, back], attempt([pick_c, back]), ["c", "d"])) == \
+        sorted([atom["(on-surface c table)"], atom["(on d b)"], atom["(on-surface b table)"]])
+    assert tasks.put_back([pick_c, away], attempt([pick_c, away]), ["c"]) == []  # elsewhere
+    # learn(): the attempt hit c alone, after c went back where it stood
+    tr = attempt([pick_c, back])
+    tr.collided.clear()
+    hit = _configurations(p, {"c": lambda s: s == {"c"}})["c"]
+    tr.collided.append((p.make_mode(1, tr.sym, mode.poses, mode.held), hit))
+    tasks.plan, tasks.plan_transitions = [pick_c, back, unstack], [
+        Transition(gp.init, pick_c, gp.apply(gp.init, pick_c), successes=1),
+        Transition(gp.apply(gp.init, pick_c), back, tr.sym, successes=1), tr]
+    tasks.learn()
+    greedy = tasks.task_planner().greedy
+    assert tasks.counts.get("put_back") and ("grasp", (R.lower(), "d"), True) in \
+        greedy.atom_rules
+    assert greedy.violation([pick_c, back, unstack]) == 3
+    assert greedy.violation([pick_c, away, unstack]) is None

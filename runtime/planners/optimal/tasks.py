@@ -13,8 +13,10 @@ first running an action that may change them, not only the excluded prefix.
 
 With a task planner that takes them (the greedy portfolio), a failed transition teaches more
 than its prefix (docs/planning.md, "Anchors and state rules"). If some of its attempts collided
-with movable objects alone (its *blockers*), its literals stay false until one of them moves.
-Otherwise, after at least :data:`RULE_FAILURES` failed attempts:
+with movable objects alone (its *blockers*), its literals stay false until one of them moves;
+and if the blockers stand where they stood at the start although one of them moved (taken up
+and put back: a kitchen's radish on its spot), false wherever they stand there again
+(:meth:`TaskPlans.put_back`). Otherwise, after at least :data:`RULE_FAILURES` failed attempts:
 
 * never reached, its closest attempt a real miss: until one of the movable objects its literal
   names moves (the *anchors*: the object grasped, the one placed on; not what the hand holds),
@@ -52,6 +54,8 @@ KEEP_COLLIDED = 16
 #: rule: two of the decoupled planner's steps of 3 rounds of 16 projections (one unlucky step,
 #: 1 in 12 for Blocks World E's left-arm grasp of `d`, must not rule a grasp out for good)
 RULE_FAILURES = 96
+#: a blocker within this (metres) of where it stood at the start was put back there
+PUT_BACK = 0.01
 #: a never-reached transition's closest attempt this far (its distance) is a real miss, not a
 #: projection that ran out of iterations
 MISS = 0.02
@@ -185,6 +189,10 @@ class TaskPlans:
                     for lit in tr.action.pre_geometric:
                         if self.tp.add_evidence(plan[:i], lit, False, blockers):
                             self.counts["blockers"] = self.counts.get("blockers", 0) + 1
+                    atoms = self.put_back(plan[:i], tr, blockers)
+                    for lit in tr.action.pre_geometric if atoms else ():
+                        if self.tp.add_atom_rule(lit, atoms):
+                            self.counts["put_back"] = self.counts.get("put_back", 0) + 1
                 elif tr.failures >= RULE_FAILURES:
                     self.anchor_rules(plan[:i], tr, hits)
         self.tp.exclude_prefix(plan[:min(len(plan), k + 1)])
@@ -215,6 +223,31 @@ class TaskPlans:
                 chain = self.support_chain(tr.sym, anchors)
                 if chain and tp.add_action_rule(prefix, tr.action, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
+
+    def put_back(self, prefix: list, tr: Transition, blockers: list[str]) -> list[int]:
+        """The atoms that say where ``blockers`` stand (:meth:`support_chain`) if some of them
+        moved in ``prefix`` and every one stands where it stood at the start: the same
+        placement atoms, and in every mode of ``tr``'s collided attempts a position within
+        :data:`PUT_BACK` of its first (a turn is free: a radish is round, and a stable pose
+        about a vertical axis may come back turned). They block again there, whatever came
+        before; otherwise none (blockers that never moved are the blocker rule's)."""
+        moved = self.task_planner().moved(prefix)
+        if not blockers or not moved.intersection(blockers):
+            return []
+        atoms = self.support_chain(tr.sym, blockers)
+        start = set(self.support_chain(self.p.ground.init, blockers))
+        if not atoms or set(atoms) != start:
+            return []
+        first = {k.lower(): T for k, T in self.p.initial.poses.items()}
+        for mode, _ in tr.collided:
+            now = {k.lower(): T for k, T in mode.poses.items()}
+            for b in blockers:
+                a, c = first.get(b), now.get(b)
+                if a is None or c is None:
+                    return []
+                if np.linalg.norm(np.asarray(a)[:3, 3] - np.asarray(c)[:3, 3]) > PUT_BACK:
+                    return []
+        return atoms
 
     @staticmethod
     def _modes(tr: Transition) -> list[Mode]:
