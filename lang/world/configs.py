@@ -136,7 +136,8 @@ class TomlReader(Reader):
                 else len(self.source.text)
             what = re.sub(r"\s*\(at [^)]*\)$", "", msg)
             raise SceneError(error(
-                "E502", f"{self.name}: malformed TOML: {what}", Span(self.source.path, pos, pos + 1),
+                "E502", f"{self.name}: malformed TOML: {what}",
+                Span(self.source.path, pos, pos + 1),
                 'a line is key = value; strings need quotes: scene = "scene.json"'),
                 self.report.files) from None
 
@@ -181,7 +182,8 @@ class TomlReader(Reader):
         if typ is float and isinstance(value, int) and not isinstance(value, bool):
             return float(value)
         if not ok:
-            names = {str: "a string", float: "a number", int: "a whole number", bool: "true or false"}
+            names = {str: "a string", float: "a number", int: "a whole number",
+                     bool: "true or false"}
             self.fail("E506", self.span(key), f"{key}: expected {names[typ]}, found "
                       f"{type(value).__name__} {value!r}")
         return value
@@ -493,7 +495,8 @@ def _tmit(r: JsonReader) -> RunConfig:
             if key in v:
                 params.append((key, r.integer("/" + key, v[key])))
         steps = dict(params)
-        if "min_steps" in steps and "max_steps" in steps and steps["min_steps"] > steps["max_steps"]:
+        if "min_steps" in steps and "max_steps" in steps and \
+                steps["min_steps"] > steps["max_steps"]:
             r.fail("E511", r.span("/max_steps"), f"/max_steps {steps['max_steps']} is below "
                    f"/min_steps {steps['min_steps']}")
     r.finish()
