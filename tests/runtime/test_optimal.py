@@ -617,36 +617,3 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows():
         np.fill_diagonal(C, np.inf)
         assert np.allclose(nc[:, :k], np.sort(C, axis=1)[:, :k]), (add, k)
         assert np.allclose(np.take_along_axis(C, nn[:, :k], 1), nc[:, :k])
-
-
-def test_a_focused_batch_samples_the_current_plan_alone(clutter_problem_1):
-    """With ``focus`` to a first solution, a batch queues only the modes of the current task
-    plan's symbolic states and samples only its transitions (and the goal's); without it (the
-    default) or anytime, every reachable mode and known transition, as tmit-star does."""
-    p = clutter_problem_1
-
-    def batch(**over):
-        planner = OptimalPlanner(p, 0, OptimalOptions(**over))
-        G = planner.graph
-        G.add_mode(p.initial, 0)
-        assert planner.next_task_plan(math.inf)
-        plan = planner.tasks.plan_transitions
-        # a mode an earlier plan reached: a state off this plan, and a transition of the
-        # start state that is not this plan's
-        other = next(a for a, _ in p.ground.successors(p.ground.init)
-                     if a is not plan[0].action)
-        off = p.ground.apply(p.ground.init, other)
-        assert off not in {tr.to_sym for tr in plan}
-        stale = planner.tasks.transition(p.ground.init, other, off)
-        G.add_mode(p.make_mode(1, off, p.initial.poses, p.initial.held), 1)
-        planner.sampler.new_batch()
-        tried = []
-        planner.sampler.has_budget = lambda tr, mode=None: tried.append(tr) and False
-        planner.sampler.sample_mode(p.initial)
-        return list(planner.sampler.queue), tried, plan[0], stale
-
-    queue, tried, first, stale = batch(first_solution=True, focus=True)
-    assert queue == [0] and any(t is first for t in tried) and not any(t is stale for t in tried)
-    for over in ({"first_solution": True}, {"focus": True}):
-        queue, tried, first, stale = batch(**over)
-        assert queue == [0, 1] and any(t is stale for t in tried), over

@@ -68,11 +68,6 @@ class OptimalOptions:
     cap_growth: int = 10
     cap_increment: int = 1             # the per-batch success cap grows by this much
     first_solution: bool = False       # stop at the first solution (tmit-star without -o)
-    #: with ``first_solution``: a batch samples only the modes of the current task plan's
-    #: symbolic states and only its transitions, not every mode earlier plans reached (tmpc's;
-    #: off: on the kitchen, Hanoi 3 and Non-Monotonic it was slower twice in three,
-    #: docs/planning.md)
-    focus: bool = False
     #: with ``first_solution``: seconds the task planner may spend on one horizon before it
     #: tries the next (a plan, not a proof that none is shorter; tmpc's; None: off)
     horizon_cap: float | None = 1.0

@@ -78,7 +78,6 @@ class OptimalPlanner:
             batch_budget=int(params.get("batch_budget", base.batch_budget)),
             rewire=float(over.get("rewire", base.rewire)),
             first_solution=bool(over.get("first_solution", False)),
-            focus=bool(over.get("focus", base.focus)),
             until_converged=bool(over.get("until_converged", False)),
             min_steps=int(params.get("min_steps", base.min_steps)),
             max_steps=int(params.get("max_steps", base.max_steps)),

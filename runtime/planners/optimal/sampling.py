@@ -66,20 +66,9 @@ class TransitionSampler:
             self.absolute_cap += self.opt.absolute_cap
         self.sampled = set()
         self.queue = deque(self.graph.reachable)
-        plan = self.focused()
-        if plan is not None:
-            syms = {tr.sym for tr in plan} | {tr.to_sym for tr in plan}
-            self.queue = deque(m for m in self.queue if self.graph.modes[m].sym in syms)
         self.frontier = []
         self.no_budget = True
         self.tried = False
-
-    def focused(self) -> list[Transition] | None:
-        """With ``focus`` to a first solution, the current task plan's transitions (the modes
-        and transitions a batch samples); None: every reachable mode and known transition."""
-        if not (self.opt.focus and self.opt.first_solution) or self.tasks.plan is None:
-            return None
-        return self.tasks.plan_transitions
 
     def needs_task_plan(self) -> bool:
         """Is a new task plan due: no transition had budget left, or one was tried and the
@@ -142,11 +131,7 @@ class TransitionSampler:
         # stubs are no uniform samples: the PRM* radius counts the others
         radius = G.radius(len(G.mode_vertices[mode.id]) - G.stub_count.get(mode.id, 0))
         reached = False
-        plan = self.focused()
         for tr in self.tasks.transitions.get(mode.sym, ()):
-            if plan is not None and tr.action is not None and \
-                    not any(tr is t for t in plan):
-                continue
             if not self.has_budget(tr, mode):
                 continue
             self.no_budget = False
