@@ -597,7 +597,9 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows():
     """The kept nearest-neighbour lists are merged with new vertices: when k grows past the
     entries a list holds exactly (a list cut to k + 4, then merged), it is rebuilt; each
     vertex's first k neighbours equal a brute-force sort. (A list cut at 9 and merged to 11
-    gave a wrong tenth neighbour once k reached 10.)"""
+    gave a wrong tenth neighbour once k reached 10.) It is also rebuilt when k grew by more
+    than the mode's new vertices: k counts every mode's vertices, and a list of 9 with one new
+    column could not fill the 11 a k of 7 keeps (a kitchen run crashed on it)."""
     from tmpc.runtime.planners.optimal.graph import ModeGraph
 
     class Euclid:
@@ -609,7 +611,7 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows():
     G.Q = np.random.default_rng(0).random((400, 3))
     G.mode_vertices = {0: []}
     ids = G.mode_vertices[0]
-    for add, k in ((100, 5), (10, 7), (10, 10), (40, 12), (1, 16), (80, 16)):
+    for add, k in ((100, 5), (1, 7), (10, 7), (10, 10), (40, 12), (1, 16), (80, 16)):
         ids += range(len(ids), len(ids) + add)
         nn, nc = G.neighbours(0, k)
         X = G.Q[ids]

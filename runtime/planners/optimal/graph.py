@@ -275,14 +275,17 @@ class ModeGraph:
         """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
         costs, sorted, at least ``k`` per vertex (fewer when the mode has fewer): kept between
         searches and updated with the new vertices only (their costs to all, the old lists
-        merged with the new columns); rebuilt when k outgrows the entries they hold exactly."""
+        merged with the new columns); rebuilt when k outgrows the entries they hold exactly,
+        or the merged lists could not hold the ``k + 4`` entries kept."""
         ids = self.mode_vertices[mid]
         X = self.Q[ids]
         keep = min(k + 4, len(ids) - 1)
         nn, nc, exact = self._nn.get(mid, (np.zeros((0, 0), np.int64), np.zeros((0, 0)), 0))
         old = len(nn)
-        if old and exact < min(k, len(ids) - 1):
-            old = 0                                     # k grew past the lists: start over
+        if old and (exact < min(k, len(ids) - 1) or nn.shape[1] + len(ids) - old < keep):
+            # k grew past the lists' exact entries, or by more than the new vertices can fill
+            # (k counts every mode's vertices): start over
+            old = 0
         new = np.arange(old, len(ids))
         if len(new):
             C = np.empty((len(new), len(ids)))
