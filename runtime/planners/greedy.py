@@ -455,6 +455,7 @@ class PortfolioTaskPlanner:
         return self.greedy.add_atom_rule(literal, atoms)
 
     def moved(self, prefix: Iterable[GroundAction]) -> set[str]:
+        """The greedy planner's :meth:`GreedyTaskPlanner.moved`."""
         return self.greedy.moved(prefix)
 
     def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
