@@ -184,6 +184,58 @@ def test_a_grasp_leaves_the_open_fingers_clear_of_a_block(worlds):
                               {**poses, "hand": _shift(T_hand, 0.0, 0.005)})
 
 
+def _turned(T, angle):
+    R = np.eye(4)
+    R[:2, :2] = [[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]]
+    return T @ R
+
+
+def _farthest_apart(world, big, small, peg_a, peg_b):
+    """Poses of ``big`` on ``peg_a`` and ``small`` on ``peg_b`` (both at the bottom of their
+    pegs, 1 mm up) that the meaning of `on` accepts, as far apart as any such pair on a 1 mm
+    grid of offsets (the same pair at its pegs' exact points too)."""
+    poses = {o.name: pose_matrix(o.pose) for o in world.scene.objects}
+    grid = [(dx, dy) for dx in np.linspace(-0.01, 0.01, 21) for dy in np.linspace(-0.01, 0.01, 21)]
+
+    def accepted(disc, peg):
+        return np.array([o for o in grid if _meaning_holds(
+            world, "on", (disc, peg), {**poses, disc: _shift(poses[peg], *o, 0.001)})])
+    a, b = accepted(big, peg_a), accepted(small, peg_b)
+    centre = poses[peg_b][:2, 3] - poses[peg_a][:2, 3]
+    gaps = np.linalg.norm(centre + b[None, :, :] - a[:, None, :], axis=-1)
+    i, j = np.unravel_index(np.argmax(gaps), gaps.shape)
+    exact = (_shift(poses[peg_a], 0, 0, 0.001), _shift(poses[peg_b], 0, 0, 0.001))
+    return (_shift(poses[peg_a], *a[i], 0.001), _shift(poses[peg_b], *b[j], 0.001)), exact
+
+
+def test_hanoi_6_is_unsolvable_as_published(worlds):
+    """Discs 6 and 5 (radii 8 and 7 cm, 12-sided) at the bottom of two neighbouring pegs
+    (12.5 cm apart: peg2 stands behind the other two, which are 15 cm apart) collide, however
+    far apart `on` lets them stand and however they are turned. Disc 6 starts on peg1 and must
+    end on peg3; whenever it moves, discs 1-5 stand on the third peg, disc 5 at its bottom, and
+    the third peg neighbours peg1 or peg3 (only those two are not neighbours): the state
+    before or after the move has that collision. No plan exists (docs/benchmarks.md)."""
+    world = _world(worlds, "hanoi-6")
+    for peg_a, peg_b in (("peg1", "peg2"), ("peg3", "peg2")):
+        (T6, T5), _ = _farthest_apart(world, "d6", "d5", peg_a, peg_b)
+        for t6 in np.linspace(0, math.pi / 6, 4):
+            for t5 in np.linspace(0, math.pi / 6, 4):
+                assert _collide(world, "d6", _turned(T6, t6), "d5", _turned(T5, t5))
+    # the check can fail: on the two front pegs, 15 cm apart, the same discs can stand
+    (T6, T5), _ = _farthest_apart(world, "d6", "d5", "peg1", "peg3")
+    assert not _collide(world, "d6", T6, "d5", T5)
+
+
+def test_hanoi_5_needs_discs_off_their_pegs_axes(worlds):
+    """The same argument for Hanoi 5's discs 5 and 4 (7 and 6 cm): at the bottom of
+    neighbouring pegs they collide at the pegs' exact points, and stand clear only a few
+    millimetres apart, where `on`'s 5 mm slack lets them (docs/benchmarks.md)."""
+    world = _world(worlds, "hanoi-5")
+    far, exact = _farthest_apart(world, "d5", "d4", "peg1", "peg2")
+    assert _collide(world, "d5", exact[0], "d4", exact[1])
+    assert not _collide(world, "d5", far[0], "d4", far[1])
+
+
 def test_blocks_c_is_unsolvable_as_published(worlds):
     """blocksworld_pb_C.pddl says `(clear d)` where it has no `d` (W015: ignored) and never says
     `(clear b)`: no plan can stack on `b`. `tmpc check` says so at the goal (E824)."""
