@@ -593,7 +593,8 @@ def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_wor
     assert report.valid, report
 
 
-def test_nearest_neighbour_lists_stay_exact_while_k_grows():
+@pytest.mark.parametrize("dim", [3, 10**5])   # 10**5: rows one block each (merge across blocks)
+def test_nearest_neighbour_lists_stay_exact_while_k_grows(dim):
     """The kept nearest-neighbour lists are merged with new vertices: when k grows past the
     entries a list holds exactly (a list cut to k + 4, then merged), it is rebuilt; each
     vertex's first k neighbours equal a brute-force sort. (A list cut at 9 and merged to 11
@@ -607,7 +608,7 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows():
             return np.linalg.norm(Q - q, axis=-1)
 
     G = ModeGraph.__new__(ModeGraph)
-    G.p, G.dim, G._nn = Euclid(), 3, {}
+    G.p, G.dim, G._nn = Euclid(), dim, {}
     G.Q = np.random.default_rng(0).random((400, 3))
     G.mode_vertices = {0: []}
     ids = G.mode_vertices[0]
@@ -619,3 +620,25 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows():
         np.fill_diagonal(C, np.inf)
         assert np.allclose(nc[:, :k], np.sort(C, axis=1)[:, :k]), (add, k)
         assert np.allclose(np.take_along_axis(C, nn[:, :k], 1), nc[:, :k])
+
+
+def test_neighbour_lists_stop_at_the_deadline_and_keep_what_they_had():
+    """Past the run's deadline the lists raise (the search is cut) and stay as they were: the
+    first search of a Hanoi run, whose goals came with 884,000 vertices, built its lists for
+    200 s past a 300 s limit."""
+    from tmpc.runtime.planners.optimal.graph import ModeGraph, PastDeadline
+
+    class Euclid:
+        def cost(self, Q, q):
+            return np.linalg.norm(Q - q, axis=-1)
+
+    G = ModeGraph.__new__(ModeGraph)
+    G.p, G.dim, G._nn = Euclid(), 3, {}
+    G.Q = np.random.default_rng(0).random((200, 3))
+    G.mode_vertices = {0: list(range(100))}
+    nn, nc = G.neighbours(0, 5)
+    G.mode_vertices[0] += range(100, 200)
+    with pytest.raises(PastDeadline):
+        G.neighbours(0, 5, deadline=0.0)
+    assert G._nn[0][0] is nn and len(nn) == 100
+    assert len(G.neighbours(0, 5)[0]) == 200

@@ -14,6 +14,7 @@ edge's key.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -22,6 +23,10 @@ from tmpc.runtime.problem import Mode, PlanningProblem
 
 #: cost of a transition edge (same configuration): positive so sparse graphs keep it
 BRIDGE_COST = 1e-12
+
+
+class PastDeadline(Exception):
+    """The search graph was not finished by the run's deadline."""
 
 
 def load_graphs():
@@ -217,16 +222,18 @@ class ModeGraph:
         return at, at
 
     # ---- the search graph --------------------------------------------------------------------
-    def search_graph(self):
+    def search_graph(self, deadline: float = math.inf):
         """The sparse graph (CSR of costs) of the current vertices: symmetrised k-nearest
-        neighbours inside each mode, blacklisted edges removed, transition edges directed."""
+        neighbours inside each mode, blacklisted edges removed, transition edges directed.
+        :class:`PastDeadline` past ``deadline`` while the neighbour lists are made (the lists
+        of the modes done by then are kept for the next search)."""
         n = len(self.node_mode)
         k = int(math.ceil(self.opt.rewire * (math.e + math.e / self.dim) * math.log(max(n, 2))))
         rows, cols, vals = [], [], []
         for mid, ids in self.mode_vertices.items():
             if len(ids) < 2:
                 continue
-            nn, nc = self.neighbours(mid, k)
+            nn, nc = self.neighbours(mid, k, deadline)
             kk = min(k, len(ids) - 1)
             ids = np.asarray(ids)
             rows.append(np.repeat(ids, kk))
@@ -271,12 +278,15 @@ class ModeGraph:
             g = csr_matrix((g.data[keep], (g.row[keep], g.col[keep])), shape=(n, n))
         return g.tocsr()
 
-    def neighbours(self, mid: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def neighbours(self, mid: int, k: int,
+                   deadline: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
         """The nearest neighbours of a mode's vertices (positions in the mode's list) and their
         costs, sorted, at least ``k`` per vertex (fewer when the mode has fewer): kept between
         searches and updated with the new vertices only (their costs to all, the old lists
         merged with the new columns); rebuilt when k outgrows the entries they hold exactly,
-        or the merged lists could not hold the ``k + 4`` entries kept."""
+        or the merged lists could not hold the ``k + 4`` entries kept. Past ``deadline``
+        (``time.perf_counter()``, read per block of rows) it raises :class:`PastDeadline`, the
+        mode's lists as they were."""
         ids = self.mode_vertices[mid]
         X = self.Q[ids]
         keep = min(k + 4, len(ids) - 1)
@@ -288,22 +298,33 @@ class ModeGraph:
             old = 0
         new = np.arange(old, len(ids))
         if len(new):
-            C = np.empty((len(new), len(ids)))
+            # row blocks of the new vertices' costs to all: each block's k smallest kept, and
+            # (for the merge) the old vertices' costs to the new ones; never the whole N x N
+            # matrix (8 N^2 bytes: a Hanoi 3 run whose first goal came with 884,000 vertices
+            # peaked at 6.5 GB)
+            top = np.empty((len(new), keep), np.int64)
+            top_cost = np.empty((len(new), keep))
+            back = np.empty((old, len(new)))
             step = max(1, int(2e6 // (len(ids) * self.dim)))   # bounds the (r, N, n) block
             for lo in range(0, len(new), step):
-                C[lo:lo + step] = self.p.cost(X[None], X[new[lo:lo + step], None])
-            C[np.arange(len(new)), new] = np.inf
-            top = smallest_k(C, keep)
-            rows_new = (top, np.take_along_axis(C, top, 1))
+                if time.perf_counter() > deadline:
+                    raise PastDeadline
+                rows = new[lo:lo + step]
+                C = self.p.cost(X[None], X[rows, None])
+                C[np.arange(len(rows)), rows] = np.inf
+                t = smallest_k(C, keep)
+                top[lo:lo + len(rows)] = t
+                top_cost[lo:lo + len(rows)] = np.take_along_axis(C, t, 1)
+                back[:, lo:lo + len(rows)] = C[:, :old].T
             if old:
                 cand = np.concatenate([nn, np.broadcast_to(new, (old, len(new)))], 1)
-                cost = np.concatenate([nc, C[:, :old].T], 1)
+                cost = np.concatenate([nc, back], 1)
                 order = smallest_k(cost, keep)
-                nn = np.concatenate([np.take_along_axis(cand, order, 1), _pad(rows_new[0], keep)])
+                nn = np.concatenate([np.take_along_axis(cand, order, 1), _pad(top, keep)])
                 nc = np.concatenate([np.take_along_axis(cost, order, 1),
-                                     _pad(rows_new[1], keep, np.inf)])
+                                     _pad(top_cost, keep, np.inf)])
             else:
-                nn, nc = rows_new
+                nn, nc = top, top_cost
             # how many leading entries of every list are exact: all of them while a list holds
             # every other vertex; once cut to ``keep``, the entries a merge appends past an old
             # list's cut may miss old vertices that were cut, so its count stays

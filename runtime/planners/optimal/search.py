@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from tmpc.runtime.planners.optimal.escapes import Escapes
-from tmpc.runtime.planners.optimal.graph import ModeGraph, edge_key, load_graphs
+from tmpc.runtime.planners.optimal.graph import ModeGraph, PastDeadline, edge_key, load_graphs
 from tmpc.runtime.planners.optimal.options import BestSolution, OptimalOptions
 from tmpc.runtime.problem import PlanningProblem
 
@@ -138,7 +138,16 @@ class Searcher:
             return False
         t = self._search_t0 = time.perf_counter()
         self.counts["searches"] += 1
-        g = G.search_graph()
+        try:
+            g = G.search_graph(self.deadline)
+        except PastDeadline:
+            # the run's time is up before the graph was: no search (the first one's graph
+            # has no measure to be foreseen by :meth:`fits`; a Hanoi run's first goal came
+            # with 884,000 vertices)
+            self.counts["searches_cut"] += 1
+            self._graph_seconds = (time.perf_counter() - t) / len(G.node_mode)
+            self.p.timers.search += time.perf_counter() - t
+            return False
         _, dijkstra = load_graphs()
         h = dijkstra(g.T.tocsr(), directed=True, indices=sorted(G.goals), min_only=True)
         improved = self._forward(g, h)
