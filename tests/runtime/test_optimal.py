@@ -636,7 +636,7 @@ def test_neighbour_lists_stop_at_the_deadline_and_keep_what_they_had():
     G.p, G.dim, G._nn = Euclid(), 3, {}
     G.Q = np.random.default_rng(0).random((200, 3))
     G.mode_vertices = {0: list(range(100))}
-    nn, nc = G.neighbours(0, 5)
+    nn, _ = G.neighbours(0, 5)
     G.mode_vertices[0] += range(100, 200)
     with pytest.raises(PastDeadline):
         G.neighbours(0, 5, deadline=0.0)
