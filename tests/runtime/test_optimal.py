@@ -622,6 +622,55 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows(dim):
         assert np.allclose(np.take_along_axis(C, nn[:, :k], 1), nc[:, :k])
 
 
+def test_tree_neighbour_lists_equal_brute_force_on_a_torus(monkeypatch):
+    """A large mode's lists come from a k-d tree where the cost is Euclidean (a fixed base),
+    periodic in the coordinates that wrap (continuous joints): the same costs as every pair's
+    (points near both ends of a wrapping coordinate are neighbours), whatever the mode's
+    size; duplicated vertices are each other's neighbours at cost 0, never their own."""
+    from types import SimpleNamespace
+
+    from tmpc.runtime.planners.optimal import graph as graph_mod
+
+    lower, upper = np.array([-1.0, -np.pi, 0.0]), np.array([1.0, np.pi, 0.5])
+    wraps = np.array([False, True, False])
+
+    class Torus:
+        model = SimpleNamespace(mobile_base=False)
+
+        def __init__(self):
+            self.lower, self.upper, self.wraps = lower, upper, wraps
+
+        def cost(self, Q, q):
+            d = np.asarray(Q) - q
+            d[..., wraps] = (d[..., wraps] + np.pi) % (2 * np.pi) - np.pi
+            return np.linalg.norm(d, axis=-1)
+
+    monkeypatch.setattr(graph_mod, "TREE_SIZE", 50)
+    G = graph_mod.ModeGraph.__new__(graph_mod.ModeGraph)
+    G.p, G.dim, G._nn = Torus(), 3, {}
+    rng = np.random.default_rng(1)
+    Q = rng.uniform(lower, upper, (300, 3))
+    Q[:40, 1] = rng.choice([-1, 1], 40) * rng.uniform(3.0, np.pi, 40)   # near +-pi
+    Q[299] = Q[0]                                                        # a duplicate
+    G.Q, G.mode_vertices = Q, {0: list(range(300))}
+    k = 9
+    nn, nc = G.neighbours(0, k)
+    C = G.p.cost(Q[None], Q[:, None])
+    np.fill_diagonal(C, np.inf)
+    assert np.allclose(nc[:, :k], np.sort(C, axis=1)[:, :k])
+    assert np.allclose(np.take_along_axis(C, nn[:, :k], 1), nc[:, :k])
+    assert nn[0, 0] == 299 and nc[0, 0] == 0 and not (nn == np.arange(300)[:, None]).any()
+    # some lists cross the wrap: their neighbours' angles lie on the other side of +-pi
+    assert any((np.sign(Q[nn[i, :k], 1]) != np.sign(Q[i, 1])).any() for i in range(40))
+    # the brute-force merge goes on from the tree's lists as new vertices come
+    G.Q = np.concatenate([Q, rng.uniform(lower, upper, (30, 3))])
+    G.mode_vertices[0] += range(300, 330)
+    nn, nc = G.neighbours(0, k)
+    C = G.p.cost(G.Q[None], G.Q[:, None])
+    np.fill_diagonal(C, np.inf)
+    assert np.allclose(nc[:, :k], np.sort(C, axis=1)[:, :k])
+
+
 def test_neighbour_lists_stop_at_the_deadline_and_keep_what_they_had():
     """Past the run's deadline the lists raise (the search is cut) and stay as they were: the
     first search of a Hanoi run, whose goals came with 884,000 vertices, built its lists for
