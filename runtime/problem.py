@@ -190,6 +190,7 @@ class PlanningProblem:
         self.evidence.reached(self.ground.init)
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
         self.wraps = np.asarray(self.model.wraps, bool)
+        self._wrap_columns = np.flatnonzero(self.wraps)
         self._projectors: dict[str, tuple] = {}
         self._raw_projectors: dict[str, object] = {}
         self._goal = None
@@ -435,9 +436,8 @@ class PlanningProblem:
         motions interpolate them)."""
         d = self.difference(Q, q)
         if not self.model.mobile_base:
-            return np.linalg.norm(d, axis=-1)
-        return (np.linalg.norm(d[..., 3:], axis=-1) + np.linalg.norm(d[..., :2], axis=-1)
-                + np.abs(d[..., 2]))
+            return _norm(d)
+        return _norm(d[..., 3:]) + _norm(d[..., :2]) + np.abs(d[..., 2])
 
     def cost_subgradient(self, q: np.ndarray, a: np.ndarray) -> np.ndarray:
         """A subgradient in ``q`` of :meth:`cost` (q, a): each of its norms' unit vector (0
@@ -519,13 +519,19 @@ class PlanningProblem:
         return rng.uniform(self.lower, self.upper, (n, len(self.lower)))
 
     def difference(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """``Q - q`` with wrapping coordinates (yaw, continuous joints) the short way round."""
-        d = np.asarray(Q) - q
-        d[..., self.wraps] = (d[..., self.wraps] + np.pi) % (2 * np.pi) - np.pi
+        """``Q - q`` with wrapping coordinates (yaw, continuous joints) the short way round
+        (column by column, in place: a boolean-mask copy and scatter took half the time of
+        the graph's cost blocks)."""
+        d = np.asarray(Q, float) - q
+        for j in self._wrap_columns:
+            c = d[..., j]
+            c += np.pi
+            np.remainder(c, 2 * np.pi, out=c)
+            c -= np.pi
         return d
 
     def distance(self, Q: np.ndarray, q: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(self.difference(Q, q), axis=-1)
+        return _norm(self.difference(Q, q))
 
     def wrap(self, Q: np.ndarray) -> np.ndarray:
         """Wrapping coordinates brought into their bounds."""
@@ -533,6 +539,11 @@ class PlanningProblem:
         w = self.wraps
         Q[..., w] = (Q[..., w] + np.pi) % (2 * np.pi) - np.pi
         return np.clip(Q, self.lower, self.upper)
+
+
+def _norm(d: np.ndarray) -> np.ndarray:
+    """The L2 norm over the last axis (einsum: without ``linalg.norm``'s temporaries)."""
+    return np.sqrt(np.einsum("...i,...i->...", d, d))
 
 
 def _needs_geo(action) -> bool:
