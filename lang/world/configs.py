@@ -58,6 +58,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "batch_budget": (int, "batches before a new task plan (tmit-star: 5)"),
     "projection_iterations": (int, "projector steps per transition attempt of the optimal "
                                    "planner (default 30)"),
+    "confirm_resolution": (float, "motion-check resolution at which the optimal planner "
+                                  "confirms a path found (default 0.05, the resolution)"),
     "task_planner": (str, "the optimal and decoupled planners' task planner to a first "
                           "solution: auto, sat or greedy (default auto: docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "

@@ -468,6 +468,42 @@ def test_time_limit_without_a_solution_is_partial(clutter_problem_1):
     assert np.array_equal(result.path[0][0], clutter_problem_1.q0)
 
 
+def test_confirm_resolution_comes_from_the_configuration_or_the_command_line(
+        clutter_problem_1, monkeypatch, tmp_path):
+    """``confirm_resolution`` (a manifest's [planner] or ``--param``, which wins) is the
+    resolution a found path's edges are confirmed at: a path confirmed at 0.01 is valid by the
+    validator at 0.01. Off by default (the resolution); not a number > 0 is E825."""
+    from types import SimpleNamespace
+
+    from tmpc.lang.diagnostics import TmpcError
+    from tmpc.runtime.plans import plan_document, write_json_atomic
+    from tmpc.runtime.validate import validate_plan
+    problem = clutter_problem_1
+    assert OptimalPlanner.from_options(problem, 0, {}).opt.confirm_resolution == 0.05
+    for bad in (0, -1, "fine", float("inf")):
+        with pytest.raises(TmpcError) as exc:
+            OptimalPlanner.from_options(problem, 0, {"confirm_resolution": bad})
+        assert exc.value.diagnostics[0].code == "E825"
+    config = replace(problem.world.config, params=(("confirm_resolution", 0.02),))
+    monkeypatch.setattr(problem, "world", SimpleNamespace(config=config))
+    assert OptimalPlanner.from_options(problem, 0, {}).opt.confirm_resolution == 0.02
+    planner = OptimalPlanner.from_options(problem, 0, {"first_solution": True,
+                                                       "confirm_resolution": 0.01})
+    monkeypatch.undo()
+    assert planner.opt.confirm_resolution == 0.01
+    seen = []
+    many = problem.motions_valid_many
+    monkeypatch.setattr(problem, "motions_valid_many",
+                        lambda items, res, ends=False: seen.append(res) or many(items, res, ends))
+    result = planner.solve(60.0)
+    assert result.status == "solved" and 0.01 in seen
+    monkeypatch.undo()
+    doc = plan_document(problem, result, planner="optimal", seed=0, input_path=str(CLUTTER),
+                        setup_seconds=0.0)
+    write_json_atomic(tmp_path / "plan.json", doc)
+    assert validate_plan(problem.world, str(tmp_path / "plan.json"), resolution=0.01).valid
+
+
 def test_projection_iterations_come_from_the_configuration(clutter_problem_1, monkeypatch):
     """``projection_iterations`` of a run configuration reaches every projection of a
     transition (the distance pre-checks stay at 0 steps); below 1 it is E825."""

@@ -18,6 +18,7 @@ costs lie within ``converged_ratio`` of each other. Ctrl-C keeps the best plan.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -65,10 +66,11 @@ class OptimalPlanner:
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "OptimalPlanner":
         """The registry's factory: ``batch_size``, ``batch_budget``, ``min_steps``,
-        ``max_steps``, ``projection_iterations``, ``task_planner`` from the run configuration
-        (a tmit-star spec or a manifest's [planner]); the command line's ``batch_size``,
-        ``rewire``, ``first_solution``, ``until_converged`` and ``task_planner`` (``tmpc bench
-        --param``) win. E825 for a value out of range."""
+        ``max_steps``, ``projection_iterations``, ``confirm_resolution``, ``task_planner`` from
+        the run configuration (a tmit-star spec or a manifest's [planner]); the command line's
+        ``batch_size``, ``rewire``, ``first_solution``, ``until_converged``,
+        ``confirm_resolution`` and ``task_planner`` (``tmpc bench --param``) win. E825 for a
+        value out of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
@@ -83,6 +85,8 @@ class OptimalPlanner:
             max_steps=int(params.get("max_steps", base.max_steps)),
             projection_iterations=int(params.get("projection_iterations",
                                                  base.projection_iterations)),
+            confirm_resolution=_number(over.get("confirm_resolution", params.get(
+                "confirm_resolution", base.confirm_resolution))),
             task_planner=str(over.get("task_planner", params.get("task_planner",
                                                                  base.task_planner))))
         if opts.task_planner not in TASK_PLANNERS:
@@ -92,11 +96,14 @@ class OptimalPlanner:
                                 ("batch budget", opts.batch_budget, opts.batch_budget >= 1),
                                 ("rewire factor", opts.rewire, opts.rewire > 0),
                                 ("projection iterations", opts.projection_iterations,
-                                 opts.projection_iterations >= 1)):
+                                 opts.projection_iterations >= 1),
+                                ("confirm resolution", opts.confirm_resolution,
+                                 math.isfinite(opts.confirm_resolution)
+                                 and opts.confirm_resolution > 0)):
             if not ok:
                 raise InputError(error("E825", f"{name} {value} is out of range", None,
                                        "batch size, budget and projection iterations >= 1, "
-                                       "rewire factor > 0"))
+                                       "rewire factor and confirm resolution > 0"))
         return cls(problem, seed=seed, options=opts)
 
     # ---- what the run and its progress line read ---------------------------------------------
@@ -223,3 +230,11 @@ class OptimalPlanner:
         if solved:
             status = "solved"
         return OptimalResult(status, path, stats, best.cost)
+
+
+def _number(value) -> float:
+    """``value`` as a float; NaN (out of range: E825) for what is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan

@@ -191,8 +191,9 @@ class Searcher:
         return True
 
     def confirm(self, path: list[int]) -> bool:
-        """Check the edges of ``path`` at the full resolution (those not confirmed yet, a
-        batched call per mode); False if one fails (it is then invalid)."""
+        """Check the edges of ``path`` at the confirming resolution, ``confirm_resolution``
+        (those not confirmed yet, a batched call per mode); False if one fails (it is then
+        invalid)."""
         G = self.graph
         todo: dict[int, list[tuple[int, int]]] = {}
         for u, v in zip(path, path[1:]):
@@ -202,7 +203,8 @@ class Searcher:
         good = True
         groups = [(mid, keys, np.array(keys).T) for mid, keys in todo.items()]
         oks = self.p.motions_valid_many([(G.modes[mid], G.Q[a], G.Q[b])
-                                         for mid, _, (a, b) in groups], self.opt.resolution)
+                                         for mid, _, (a, b) in groups],
+                                        min(self.opt.resolution, self.opt.confirm_resolution))
         for (_, keys, _), ok in zip(groups, oks):
             self.counts["edges_confirmed"] += len(keys)
             for key, fine in zip(keys, ok.tolist()):
