@@ -471,8 +471,9 @@ def test_time_limit_without_a_solution_is_partial(clutter_problem_1):
 def test_confirm_resolution_comes_from_the_configuration_or_the_command_line(
         clutter_problem_1, monkeypatch, tmp_path):
     """``confirm_resolution`` (a manifest's [planner] or ``--param``, which wins) is the
-    resolution a found path's edges are confirmed at: a path confirmed at 0.01 is valid by the
-    validator at 0.01. Off by default (the resolution); not a number > 0 is E825."""
+    resolution a found path's edges are confirmed at, besides the resolution itself: a path
+    confirmed at 0.01 is valid by the validator at 0.01 and at 0.05 (their steps do not
+    coincide). Off by default (the resolution); not a number > 0 is E825."""
     from types import SimpleNamespace
 
     from tmpc.lang.diagnostics import TmpcError
@@ -496,12 +497,14 @@ def test_confirm_resolution_comes_from_the_configuration_or_the_command_line(
     monkeypatch.setattr(problem, "motions_valid_many",
                         lambda items, res, ends=False: seen.append(res) or many(items, res, ends))
     result = planner.solve(60.0)
-    assert result.status == "solved" and 0.01 in seen
+    assert result.status == "solved" and 0.01 in seen and 0.05 in seen
     monkeypatch.undo()
     doc = plan_document(problem, result, planner="optimal", seed=0, input_path=str(CLUTTER),
                         setup_seconds=0.0)
     write_json_atomic(tmp_path / "plan.json", doc)
-    assert validate_plan(problem.world, str(tmp_path / "plan.json"), resolution=0.01).valid
+    for resolution in (0.05, 0.01):
+        assert validate_plan(problem.world, str(tmp_path / "plan.json"),
+                             resolution=resolution).valid
 
 
 def test_projection_iterations_come_from_the_configuration(clutter_problem_1, monkeypatch):

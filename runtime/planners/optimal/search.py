@@ -191,9 +191,9 @@ class Searcher:
         return True
 
     def confirm(self, path: list[int]) -> bool:
-        """Check the edges of ``path`` at the confirming resolution, ``confirm_resolution``
-        (those not confirmed yet, a batched call per mode); False if one fails (it is then
-        invalid)."""
+        """Check the edges of ``path`` at the full resolution, and at ``confirm_resolution``
+        too if it is finer (those not confirmed yet, a batched call per mode and resolution);
+        False if one fails (it is then invalid)."""
         G = self.graph
         todo: dict[int, list[tuple[int, int]]] = {}
         for u, v in zip(path, path[1:]):
@@ -202,9 +202,13 @@ class Searcher:
                 todo.setdefault(G.node_mode[u], []).append(key)
         good = True
         groups = [(mid, keys, np.array(keys).T) for mid, keys in todo.items()]
-        oks = self.p.motions_valid_many([(G.modes[mid], G.Q[a], G.Q[b])
-                                         for mid, _, (a, b) in groups],
-                                        min(self.opt.resolution, self.opt.confirm_resolution))
+        items = [(G.modes[mid], G.Q[a], G.Q[b]) for mid, _, (a, b) in groups]
+        oks = self.p.motions_valid_many(items, self.opt.resolution)
+        if self.opt.confirm_resolution < self.opt.resolution:
+            # the finer steps do not fall on the coarser ones: both, or a plan valid at 0.01
+            # may graze at 0.05 (by 0.3 mm at most, in 3 of 27 Non-Monotonic and kitchen runs)
+            oks = [a & b for a, b in zip(oks, self.p.motions_valid_many(
+                items, self.opt.confirm_resolution))]
         for (_, keys, _), ok in zip(groups, oks):
             self.counts["edges_confirmed"] += len(keys)
             for key, fine in zip(keys, ok.tolist()):
