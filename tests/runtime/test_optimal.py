@@ -632,6 +632,21 @@ def test_refinement_on_a_fixed_base_arm_keeps_the_frames_it_acts_on(tabletop_wor
     assert report.valid, report
 
 
+class _Euclid:
+    """A problem whose cost is the plain Euclidean distance (what the neighbour lists need)."""
+
+    def cost(self, Q, q):
+        return np.linalg.norm(Q - q, axis=-1)
+
+
+def _bare_graph(problem, dim: int):
+    """A ModeGraph with only what :meth:`ModeGraph.neighbours` reads (its problem's cost)."""
+    from tmpc.runtime.planners.optimal.graph import ModeGraph
+    G = ModeGraph.__new__(ModeGraph)
+    G.p, G.dim, G._nn = problem, dim, {}
+    return G
+
+
 @pytest.mark.parametrize("dim", [3, 10**5])   # 10**5: rows one block each (merge across blocks)
 def test_nearest_neighbour_lists_stay_exact_while_k_grows(dim):
     """The kept nearest-neighbour lists are merged with new vertices: when k grows past the
@@ -640,14 +655,8 @@ def test_nearest_neighbour_lists_stay_exact_while_k_grows(dim):
     gave a wrong tenth neighbour once k reached 10.) It is also rebuilt when k grew by more
     than the mode's new vertices: k counts every mode's vertices, and a list of 9 with one new
     column could not fill the 11 a k of 7 keeps (a kitchen run crashed on it)."""
-    from tmpc.runtime.planners.optimal.graph import ModeGraph
 
-    class Euclid:
-        def cost(self, Q, q):
-            return np.linalg.norm(Q - q, axis=-1)
-
-    G = ModeGraph.__new__(ModeGraph)
-    G.p, G.dim, G._nn = Euclid(), dim, {}
+    G = _bare_graph(_Euclid(), dim)
     G.Q = np.random.default_rng(0).random((400, 3))
     G.mode_vertices = {0: []}
     ids = G.mode_vertices[0]
@@ -685,8 +694,7 @@ def test_tree_neighbour_lists_equal_brute_force_on_a_torus(monkeypatch):
             return np.linalg.norm(d, axis=-1)
 
     monkeypatch.setattr(graph_mod, "TREE_SIZE", 50)
-    G = graph_mod.ModeGraph.__new__(graph_mod.ModeGraph)
-    G.p, G.dim, G._nn = Torus(), 3, {}
+    G = _bare_graph(Torus(), 3)
     rng = np.random.default_rng(1)
     Q = rng.uniform(lower, upper, (300, 3))
     Q[:40, 1] = rng.choice([-1, 1], 40) * rng.uniform(3.0, np.pi, 40)   # near +-pi
@@ -714,14 +722,9 @@ def test_neighbour_lists_stop_at_the_deadline_and_keep_what_they_had():
     """Past the run's deadline the lists raise (the search is cut) and stay as they were: the
     first search of a Hanoi run, whose goals came with 884,000 vertices, built its lists for
     200 s past a 300 s limit."""
-    from tmpc.runtime.planners.optimal.graph import ModeGraph, PastDeadline
+    from tmpc.runtime.planners.optimal.graph import PastDeadline
 
-    class Euclid:
-        def cost(self, Q, q):
-            return np.linalg.norm(Q - q, axis=-1)
-
-    G = ModeGraph.__new__(ModeGraph)
-    G.p, G.dim, G._nn = Euclid(), 3, {}
+    G = _bare_graph(_Euclid(), 3)
     G.Q = np.random.default_rng(0).random((200, 3))
     G.mode_vertices = {0: list(range(100))}
     nn, _ = G.neighbours(0, 5)

@@ -292,13 +292,14 @@ class ModeGraph:
             return None
         return np.where(p.wraps, p.upper - p.lower, 0.0)
 
-    def _tree_neighbours(self, X: np.ndarray, keep: int) -> tuple[np.ndarray, np.ndarray]:
+    def _tree_neighbours(self, X: np.ndarray, keep: int,
+                         box: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every vertex's ``keep`` nearest others (positions in ``X``) and their costs, sorted,
         from a k-d tree (scipy's, periodic where coordinates wrap): a mode's lists made afresh
         in O(N log N) rather than the N x N costs (20,000 vertices: 0.9 s against 19 s). The
-        costs are :meth:`PlanningProblem.cost`'s; ties fall as the tree returns them."""
+        costs are :meth:`PlanningProblem.cost`'s; ties fall as the tree returns them. ``box``:
+        :meth:`_torus`."""
         from scipy.spatial import cKDTree
-        box = self._torus()
         Y = np.where(box > 0, np.mod(X - self.p.lower, np.where(box > 0, box, 1.0)), X)
         _, idx = cKDTree(Y, boxsize=box).query(Y, keep + 1)
         # a vertex is its own nearest, unless another stands on it: drop it wherever it is
@@ -327,12 +328,10 @@ class ModeGraph:
             # (k counts every mode's vertices): start over
             old = 0
         new = np.arange(old, len(ids))
-        if not old and len(ids) > TREE_SIZE and self._torus() is not None:
-            nn, nc = self._tree_neighbours(X, keep)
-            complete = keep >= len(ids) - 1
-            self._nn[mid] = (nn, nc, math.inf if complete else keep)
-            return nn, nc
-        if len(new):
+        box = self._torus() if not old and len(ids) > TREE_SIZE else None
+        if box is not None:
+            nn, nc = self._tree_neighbours(X, keep, box)
+        elif len(new):
             # row blocks of the new vertices' costs to all: each block's k smallest kept, and
             # (for the merge) the old vertices' costs to the new ones; never the whole N x N
             # matrix (8 N^2 bytes: a Hanoi 3 run whose first goal came with 884,000 vertices
@@ -360,6 +359,7 @@ class ModeGraph:
                                      _pad(top_cost, keep, np.inf)])
             else:
                 nn, nc = top, top_cost
+        if len(new):
             # how many leading entries of every list are exact: all of them while a list holds
             # every other vertex; once cut to ``keep``, the entries a merge appends past an old
             # list's cut may miss old vertices that were cut, so its count stays
