@@ -403,7 +403,9 @@ _TABLE = (
                           "(its gap above the surface > 1 cm, or tilted > 5°); an error with "
                           "--strict"),
     Code("W840", WARNING, "an `:init` atom whose semantics-module meaning is false in the scene: "
-                          "the PDDL file and the scene disagree"),
+                          "the PDDL file and the scene disagree (a placement on a fixed support "
+                          "the scene puts elsewhere: plans start from the scene's, named in the "
+                          "hint)"),
     Code("E817", ERROR, "a plan made for another problem: it names joints the robot does not have "
                         "or objects the scene does not (`validate`, `view`)"),
     Code("E818", ERROR, "a state's `t` that is not a finite number >= 0, or is before the "

@@ -23,6 +23,7 @@ import collections
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -37,6 +38,7 @@ from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, prepare_ke
 from tmpc.runtime.evaluate import Evaluator, Obj
 from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
+from tmpc.runtime.start_atoms import settled_placements
 
 #: projection starts per call (a fixed batch shape: the projector compiles once per schema)
 PROJECTION_BATCH = 16
@@ -224,7 +226,18 @@ class PlanningProblem:
         poses (:func:`true_symbols`)."""
         bits = true_symbols(ground, self.world.scene, self.model, self.world.program.scope,
                             state.poses)
-        return ground.with_init(ground.init | bits) if bits else ground
+        init = ground.init | bits
+        for s in self.settled:
+            i, j = ground.atom_id(s.old[0], *s.old[1]), ground.atom_id(s.new[0], *s.new[1])
+            if i is not None and j is not None:
+                init = init & ~(1 << i) | (1 << j)
+        return ground.with_init(init) if init != ground.init else ground
+
+    @cached_property
+    def settled(self) -> list:
+        """The file's `:init` placement atoms the scene replaces where plans start
+        (:func:`~tmpc.runtime.start_atoms.settled_placements`)."""
+        return settled_placements(self.world)
 
     # ---- checks before planning ----------------------------------------------------------------
     def _check_objects(self) -> None:

@@ -36,6 +36,7 @@ from tmpc.lang.semantics_module import MEANS_SUFFIX
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.collision import CollisionWorld
 from tmpc.runtime.evaluate import Evaluator, Obj
+from tmpc.runtime.start_atoms import settled_placements
 
 #: the setup errors, in the order a run meets them
 SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E834", "E829", "E823")
@@ -261,14 +262,16 @@ def setup_diagnostics(world) -> list[Diagnostic]:
 def init_meanings(world) -> list[Diagnostic]:
     """W840: an `:init` atom whose predicate a semantics module gives a meaning
     (docs/language.md, "Semantics modules") while the meaning is false in the scene: the PDDL
-    file and the scene disagree (the task planner believes the file; the geometry is the
-    scene's). Evaluated once per atom, by the numpy interpreter; for `tmpc check`."""
+    file and the scene disagree (the task planner believes the file, the geometry is the
+    scene's; for a placement on a fixed support the scene holds another, plans start from that
+    one: :mod:`tmpc.runtime.start_atoms`). Evaluated once per atom, by the numpy interpreter; for `tmpc check`."""
     program = world.program
     if program is None or program.problem is None:
         return []
     scope, scene = program.scope, world.scene
     poses = {o.name: pose_matrix(o.pose) for o in scene.objects}
     ev = Evaluator(scene, None, None, None, poses, scope)
+    settled = {s.old: s.text for s in settled_placements(world)}
     out = []
     for item in program.problem.init:
         if not isinstance(item, A.Atom):
@@ -282,10 +285,14 @@ def init_meanings(world) -> list[Diagnostic]:
         except TmpcError:
             continue
         if not holds:
+            new = settled.get((item.pred.key, tuple(t.name.key for t in item.args)))
+            hint = (f"plans start from the scene's {new} instead (docs/language.md, \"Semantics "
+                    f"modules\"; the scene: {scene.path})" if new is not None else
+                    "the task planner starts from the file's atoms; the geometry is the "
+                    f"scene's ({scene.path})")
             out.append(warning("W840", f"{_atom_text(item)} is in `:init`, but its meaning is "
                                "false in the scene: the file and the scene disagree", item.span,
-                               "the task planner starts from the file's atoms; the geometry is "
-                               f"the scene's ({scene.path})"))
+                               hint))
     return out
 
 

@@ -38,6 +38,7 @@ import numpy as np
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.plans import Plan, PlanState, parse_ground, pose_matrix, read_plan
+from tmpc.runtime.start_atoms import settled_placements
 from tmpc.runtime.validate.checks import StateChecks
 from tmpc.runtime.validate.collision import Checker
 from tmpc.runtime.validate.kinematics import (
@@ -77,7 +78,8 @@ class Validator(StateChecks):
         self.world, self.scene = world, world.scene
         self.tolerance = default_tolerance(world) if tolerance is None else float(tolerance)
         self.resolution = float(resolution)
-        self.logic = Logic(world.program)
+        # the file's placement atoms the scene replaces, as the planners start from them
+        self.logic = Logic(world.program, settled_placements(world))
         spec = self.scene.robot
         self.desc = read_urdf(urdf_path(world.scene)) if spec is not None else None
         self.kin = Kinematics(self.desc) if self.desc is not None else None
@@ -385,5 +387,11 @@ def check_numbers(tolerance, resolution) -> None:
                                "number > 0 (rad or m)", None, "e.g. 0.05"))
 
 
-__all__ = ["Validator", "Report", "Violation", "validate_plan", "check_numbers",
-           "default_tolerance"]
+__all__ = [
+    "Report",
+    "Validator",
+    "Violation",
+    "check_numbers",
+    "default_tolerance",
+    "validate_plan",
+]

@@ -38,8 +38,11 @@ class Facts:
 class Logic:
     """The domain and problem of a checked program, for simulation."""
 
-    def __init__(self, program):
+    def __init__(self, program, settled=()):
+        """``settled``: :class:`~tmpc.runtime.start_atoms.Settled` replacements of `:init`
+        atoms (the scene's placements where the file's are false in it)."""
         self.program = program
+        self.settled = {s.old: s.new for s in settled}
         self.scope = sc = program.scope
         self.domain, self.problem = program.domain, program.problem
         self.objects = {k: info for k, info in sc.objects.items()}
@@ -83,7 +86,8 @@ class Logic:
         atoms, numbers = set(), {}
         for item in self.problem.init if self.problem is not None else ():
             if isinstance(item, A.Atom):
-                atoms.add((item.pred.key, tuple(t.name.key for t in item.args)))
+                atom = (item.pred.key, tuple(t.name.key for t in item.args))
+                atoms.add(self.settled.get(atom, atom))
             elif isinstance(item, A.NumericInit):
                 key = (item.target.name.key, tuple(t.name.key for t in item.target.args))
                 numbers[key] = item.value.value

@@ -270,12 +270,14 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
     greedy = tasks.task_planner().greedy
     atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    # the file says b stands on the table, the scene on the blue tray: plans start from the
+    # scene's placement (tmpc.runtime.start_atoms)
     assert sorted(tasks.support_chain(gp.init, ["d"])) == sorted(
-        [atom["(on d b)"], atom["(on-surface b table)"]])
+        [atom["(on d b)"], atom["(on-surface b blue-tray)"]])
     assert tasks.support_chain(gp.init, ["table"]) == []
     hits = _configurations(p, {
         "fixed": lambda s: "table" in s and not s & {"a", "b", "c", "d"},
-        "block": lambda s: "a" in s})
+        "block": lambda s: "a" in s and s <= {"a", "b", "c", "d"}})
     assert tasks.collisions(mode, hits["fixed"]) == (set(), True)
     assert "a" in tasks.collisions(mode, hits["block"])[0]
     assert "a" not in tasks.collisions(mode, hits["block"], {"a"})[0]     # the action's own
@@ -310,9 +312,22 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     for _ in range(RULE_FAILURES):
         tr.record_failure(holding, hits["fixed"], True, 0.0)
     tasks.anchor_rules([pick_d], tr)
-    assert greedy.action_rules == {stack.id: [(0, 1 << atom["(on-surface c table)"])]}
+    assert greedy.action_rules == {stack.id: [(0, 1 << atom["(on-surface c red-tray)"])]}
     assert greedy.violation([pick_d, stack]) == 2
-    # ... another block among the collisions: nothing learnt
+    # ... another block among the collisions as well as the table: ruled out there until that
+    # block moves
+    fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    both = _configurations(p, {"both": lambda s: "table" in s and "a" in s})["both"]
+    tr.collided[-1] = (holding, both)
+    fresh.anchor_rules([pick_d], tr)
+    g = fresh.task_planner().greedy
+    assert g.action_rules == {stack.id: [(g._object_mask(["a"]),
+                                          1 << atom["(on-surface c red-tray)"])]}
+    assert g.violation([pick_d, stack]) == 2
+    pick_a = gp.find_action("pickup", "a", "table", "r_gripper_tool_frame")
+    put_a = gp.find_action("putdown", "a", "table", "r_gripper_tool_frame")
+    assert g.satisfies([pick_a, put_a, pick_d, stack])
+    # ... a block alone in one attempt: nothing learnt here (a blocker, learn()'s business)
     fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
     tr.collided[-1] = (holding, hits["block"])
     fresh.anchor_rules([pick_d], tr)
@@ -399,8 +414,9 @@ def test_a_blocker_put_back_where_it_stood_blocks_there_again(blocks_d):
     p = blocks_d
     gp, mode = p.ground, p.initial
     R = "r_gripper_tool_frame"
-    pick_c = gp.find_action("pickup", "c", "table", R)
-    back, away = (gp.find_action("putdown", "c", s, R) for s in ("table", "red-tray"))
+    # c starts on the red tray (the scene's placement: tmpc.runtime.start_atoms)
+    pick_c = gp.find_action("pickup", "c", "red-tray", R)
+    back, away = (gp.find_action("putdown", "c", s, R) for s in ("red-tray", "table"))
     unstack = gp.find_action("unstack", "d", "b", R)
     atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
 
@@ -418,13 +434,13 @@ def test_a_blocker_put_back_where_it_stood_blocks_there_again(blocks_d):
 
     tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
     assert tasks.put_back([pick_c, back], attempt([pick_c, back]), ["c"]) == \
-        [atom["(on-surface c table)"]]
+        [atom["(on-surface c red-tray)"]]
     assert tasks.put_back([pick_c, back], attempt([pick_c, back], PUT_BACK / 2), ["c"])
     assert tasks.put_back([pick_c, back], attempt([pick_c, back], 0.02), ["c"]) == []
     assert tasks.put_back([], attempt([]), ["c"]) == []                    # never moved
     # with a blocker that never moved (d stands where it stood): both chains
     assert sorted(tasks.put_back([pick_c, back], attempt([pick_c, back]), ["c", "d"])) == \
-        sorted([atom["(on-surface c table)"], atom["(on d b)"], atom["(on-surface b table)"]])
+        sorted([atom["(on-surface c red-tray)"], atom["(on d b)"], atom["(on-surface b blue-tray)"]])
     assert tasks.put_back([pick_c, away], attempt([pick_c, away]), ["c"]) == []  # elsewhere
     # learn(): the attempt hit c alone, after c went back where it stood
     tr = attempt([pick_c, back])
@@ -440,3 +456,70 @@ def test_a_blocker_put_back_where_it_stood_blocks_there_again(blocks_d):
         greedy.atom_rules
     assert greedy.violation([pick_c, back, unstack]) == 3
     assert greedy.violation([pick_c, away, unstack]) is None
+
+
+def test_a_plan_stuck_where_its_arm_cannot_reach_is_hopeless(blocks_d):
+    """TaskPlans.hopeless: the current plan's first transition without a success failed
+    RULE_FAILURES times, never held and never within MISS, ends the plan (what its anchor
+    rule will say); one failure fewer, a collided attempt, a near miss or a success: not."""
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import MISS, RULE_FAILURES, TaskPlans, Transition
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    L, R = "l_gripper_tool_frame", "r_gripper_tool_frame"
+    first = gp.find_action("unstack", "d", "b", L)
+    put = gp.find_action("putdown", "d", "table", L)
+    after = gp.apply(gp.init, first)
+
+    def plan(failures, held=False, distance=0.3, successes=0):
+        tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
+        tasks.task_planner()
+        tr = Transition(after, put, gp.apply(after, put))
+        for _ in range(failures):
+            tr.record_failure(mode, p.q0, held, distance)
+        tr.successes = successes
+        tasks.plan = [first, put]
+        tasks.plan_transitions = [Transition(gp.init, first, after, successes=1), tr]
+        return tasks
+
+    assert plan(RULE_FAILURES).hopeless()
+    assert not plan(RULE_FAILURES - 1).hopeless()
+    assert not plan(RULE_FAILURES, held=True).hopeless()           # collided: geometry reached
+    assert not plan(RULE_FAILURES, distance=MISS / 2).hopeless()   # a projection run short
+    assert not plan(RULE_FAILURES, successes=1).hopeless()
+    # a placement on c whose kept attempts all hit the table: from FIXED_FAILURES on
+    import dataclasses
+
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal.tasks import FIXED_FAILURES
+    hits = _configurations(p, {"fixed": lambda s: "table" in s and not s & {"a", "b", "c", "d"},
+                               "block": lambda s: "a" in s and s <= {"a", "b", "c", "d"}})
+    holding = dataclasses.replace(mode, held={"d": (L, np.eye(4))})
+    stack = gp.find_action("stack", "d", "c", L)
+
+    def stacking(failures, q):
+        tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
+        tasks.task_planner()
+        tr = Transition(after, stack, gp.apply(after, stack))
+        for _ in range(failures):
+            tr.record_failure(holding, q, True, 0.0)
+        tasks.plan = [first, stack]
+        tasks.plan_transitions = [Transition(gp.init, first, after, successes=1), tr]
+        return tasks
+    assert stacking(FIXED_FAILURES, hits["fixed"]).hopeless()
+    assert not stacking(FIXED_FAILURES - 1, hits["fixed"]).hopeless()
+    assert not stacking(FIXED_FAILURES, hits["block"]).hopeless()     # a block: a blocker
+    stuck = plan(RULE_FAILURES)
+    stuck.plan = None                                               # no plan (exhausted)
+    assert not stuck.hopeless()
+    # the right arm: the same failures at the first step
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), {"evidence": 0})
+    tasks.task_planner()
+    r = gp.find_action("unstack", "d", "b", R)
+    tr = Transition(gp.init, r, gp.apply(gp.init, r))
+    for _ in range(RULE_FAILURES):
+        tr.record_failure(mode, p.q0, False, 0.2)
+    tasks.plan, tasks.plan_transitions = [r], [tr]
+    assert tasks.hopeless()

@@ -83,6 +83,50 @@ def test_every_init_atom_with_a_meaning_holds_in_the_files_start(worlds, name):
     assert all(code == "W840" and path.endswith(".pddl") for code, path in warned)
 
 
+def test_plans_start_from_the_scenes_placements_where_the_files_disagree(worlds):
+    """Blocks World's files say `a` on the blue tray, `b` and `c` on the table; its scene has
+    them on the table, the blue tray and the red tray. The planner and the validator start from
+    the scene's atoms (W840 names them); a file and scene that agree are left alone, and an
+    object lifted clear of every support keeps the file's atom."""
+    import dataclasses
+
+    from tmpc.runtime.setup_checks import init_meanings
+    from tmpc.runtime.start_atoms import settled_placements
+    from tmpc.runtime.validate.logic import Logic
+
+    world = _world(worlds, "blocks-E")
+    settled = settled_placements(world)
+    assert {(s.old, s.new) for s in settled} == {
+        (("on-surface", ("a", "blue-tray")), ("on-surface", ("a", "table"))),
+        (("on-surface", ("b", "table")), ("on-surface", ("b", "blue-tray"))),
+        (("on-surface", ("c", "table")), ("on-surface", ("c", "red-tray")))}
+    assert {s.text for s in settled} == {"(on-surface a table)", "(on-surface b blue-tray)",
+                                         "(on-surface c red-tray)"}
+    # an independent check of the scene: each block's centre over its new support's region
+    for s in settled:
+        block, support = (world.scene.object(x) for x in s.new[1])
+        lo, hi = (np.asarray(v) for v in (support.support.lower, support.support.upper))
+        local = np.linalg.inv(pose_matrix(support.pose)) @ pose_matrix(block.pose)[:, 3]
+        assert np.all(local[:2] >= lo[:2] - 1e-9) and np.all(local[:2] <= hi[:2] + 1e-9)
+        assert abs(local[2] - hi[2]) < 0.01
+    facts = Logic(world.program, settled).initial().atoms
+    assert ("on-surface", ("a", "table")) in facts
+    assert ("on-surface", ("a", "blue-tray")) not in facts
+    assert ("on", ("e", "c")) in facts                     # agreed: kept
+    hints = [d.hint for d in init_meanings(world)]
+    assert any("(on-surface a table)" in (h or "") for h in hints)
+    assert settled_placements(_world(worlds, "hanoi-3")) == []
+    # block_a 5 cm above the table: no support near enough, the file's atom stays
+    lifted = []
+    for o in world.scene.objects:
+        if o.name == "a":
+            x, y, z = o.pose.translation
+            o = dataclasses.replace(o, pose=dataclasses.replace(o.pose, translation=(x, y, z + 0.05)))
+        lifted.append(o)
+    up = dataclasses.replace(world, scene=dataclasses.replace(world.scene, objects=lifted))
+    assert {s.old[1][0] for s in settled_placements(up)} == {"b", "c"}
+
+
 def test_grasped_by_matches_the_grasp_set_by_construction(worlds):
     """`grasped-by` against an independent reference: hand poses built from the object's grasp
     template turned about its axis hold; moved 2 cm or tilted 0.3 rad they do not."""

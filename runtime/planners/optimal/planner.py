@@ -178,7 +178,7 @@ class OptimalPlanner:
                     if self.converged():
                         break
                 if done:
-                    if self.sampler.needs_task_plan():
+                    if self.sampler.needs_task_plan() or self.tasks.hopeless():
                         self.next_task_plan(deadline)
                     self.sampler.new_batch()
                 if progress is not None:

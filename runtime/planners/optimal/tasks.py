@@ -22,10 +22,14 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
   names moves (the *anchors*: the object grasped, the one placed on; not what the hand holds),
   a grasp's literal is false (Blocks World E's right arm cannot reach `d`) and a placement is
   ruled out (with no anchors, for good: the left arm and the far tray);
-* every kept collision with the scene's fixed objects, none with another movable one (the
-  action's own objects excepted, as for blockers): the placement is ruled out wherever the
-  object it goes on stands on the same stack (a *state rule* over its support chain: Blocks
-  World's ceiling stops a tower of that height on the table, however it was built).
+* every kept collided attempt hit the scene's fixed objects (the action's own objects
+  excepted, as for blockers): the placement is ruled out wherever the object it goes on stands
+  on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
+  tower of that height on the table, however it was built), until one of the movable objects
+  some attempts hit as well moves.
+
+A plan stuck at a transition one of these rules will rule out ends at once
+(:meth:`TaskPlans.hopeless`), not after its batch budget.
 
 A placement's literal (``on~means e d``) does not name the hand, so its rules are the ground
 action's (:meth:`~tmpc.runtime.planners.greedy.GreedyTaskPlanner.add_action_rule`): what one
@@ -54,6 +58,10 @@ KEEP_COLLIDED = 16
 #: rule: two of the decoupled planner's steps of 3 rounds of 16 projections (one unlucky step,
 #: 1 in 12 for Blocks World E's left-arm grasp of `d`, must not rule a grasp out for good)
 RULE_FAILURES = 96
+#: failed attempts, every kept one against the scene's fixed objects, before a placement that
+#: a state rule will rule out ends its plan (:meth:`TaskPlans.hopeless`): about one batch of
+#: Blocks World E (a fifth block under the ceiling: 2,000-3,750 attempts a plan before)
+FIXED_FAILURES = 5 * RULE_FAILURES
 #: a blocker within this (metres) of where it stood at the start was put back there
 PUT_BACK = 0.01
 #: a never-reached transition's closest attempt this far (its distance) is a real miss, not a
@@ -112,6 +120,8 @@ class TaskPlans:
         self.exhausted = False
         #: the symbolic predicates with a placement meaning (``P~means``), on first use
         self._placing: set[str] | None = None
+        #: :meth:`fixed_rule_due` per transition: (failures // RULE_FAILURES, answer)
+        self._fixed_due: dict[int, tuple[int, bool]] = {}
 
     def task_planner(self) -> TaskPlanner:
         """The task planner ``task_planner`` names (``auto``: the SAT-or-greedy portfolio to a
@@ -159,6 +169,42 @@ class TaskPlans:
             self.transition(sym, None, sym)
         return True
 
+    def hopeless(self) -> bool:
+        """Is the current plan stuck where more sampling of it will not get: its first
+        transition without a success failed :data:`RULE_FAILURES` times, never held and its
+        closest attempt a real miss (:data:`MISS`), or :data:`FIXED_FAILURES` times with a
+        state rule due (:meth:`fixed_rule_due`)? That is what :meth:`anchor_rules` learns when
+        the plan ends, so it ends now rather than after its batch budget. Blocks World E spent
+        65 s of one batch on 1,500 grasps of `b` out of the right arm's reach, and up to 3,750
+        attempts a plan at a fifth block under the table's ceiling."""
+        if self.plan is None or not getattr(self.tp, "takes_blockers", False):
+            return False
+        tr = next((tr for tr in self.plan_transitions if tr.successes == 0), None)
+        if tr is None or tr.action is None or tr.failures < RULE_FAILURES:
+            return False
+        if not tr.collided:
+            return tr.best_fail is not None and tr.best_fail[0] >= MISS
+        return tr.failures >= FIXED_FAILURES and self.fixed_rule_due(tr)
+
+    def fixed_rule_due(self, tr: Transition) -> bool:
+        """Would :meth:`anchor_rules` learn a state rule from ``tr`` now: a placement on a
+        movable object whose kept collided attempts (all :data:`KEEP_COLLIDED` of them) each
+        hit the scene's fixed objects? Checked once per :data:`RULE_FAILURES` failures (16
+        collision checks)."""
+        key = tr.failures // RULE_FAILURES
+        known = self._fixed_due.get(id(tr))
+        if known is not None and known[0] == key:
+            return known[1]
+        due = False
+        if len(tr.collided) >= KEEP_COLLIDED and all(fixed for _, fixed in self.attempt_hits(tr)):
+            tp = self.task_planner()
+            held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
+            due = any(lit.positive and lit.predicate.endswith(MEANS) and self.support_chain(
+                tr.sym, [x for x in lit.args if x.lower() in tp.movable and x.lower() not in held])
+                for lit in tr.action.pre_geometric)
+        self._fixed_due[id(tr)] = (key, due)
+        return due
+
     def transition(self, sym: int, action, to: int) -> Transition:
         """The transition ``(action, to)`` of symbolic state ``sym``, made when new."""
         known = self.transitions.setdefault(sym, [])
@@ -202,15 +248,18 @@ class TaskPlans:
         """What a transition that failed for reasons no movable object explains teaches (the
         module docstring). Never reached, a real miss (:data:`MISS` at its closest): a grasp's
         literal false until one of its anchors moves; a placement ruled out until one of its
-        anchors moves (none: for good). Every kept collision with the scene's fixed objects and
-        none with another movable one: the placement ruled out wherever the support chain of
-        what it goes on holds. A placement's literal does not name the hand, so its rules are
-        the action's. ``hits``: :meth:`attempt_hits` of ``tr``, if known."""
+        anchors moves (none: for good). Every kept collided attempt against the scene's fixed
+        objects: the placement ruled out wherever the support chain of what it goes on holds,
+        until a movable object some of them hit as well moves. A placement's literal does not
+        name the hand, so its rules are the action's. ``hits``: :meth:`attempt_hits` of ``tr``, if known."""
         tp = self.task_planner()
         held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
         unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
         hits = self.attempt_hits(tr) if hits is None else hits
-        fixed = bool(hits) and all(hit == (set(), True) for hit in hits)
+        fixed = bool(hits) and all(hit[1] for hit in hits)
+        # movable objects some attempts hit besides the fixed ones: the rule holds until one
+        # of them moves (none: wherever the chain holds)
+        movers = sorted(set().union(*(hit[0] for hit in hits))) if fixed else []
         for lit in tr.action.pre_geometric:
             if not lit.positive:
                 continue
@@ -221,7 +270,7 @@ class TaskPlans:
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
             if fixed and placement and anchors:
                 chain = self.support_chain(tr.sym, anchors)
-                if chain and tp.add_action_rule(prefix, tr.action, atoms=chain):
+                if chain and tp.add_action_rule(prefix, tr.action, movers, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
 
     def put_back(self, prefix: list, tr: Transition, blockers: list[str]) -> list[int]:
