@@ -733,3 +733,32 @@ def test_neighbour_lists_stop_at_the_deadline_and_keep_what_they_had():
         G.neighbours(0, 5, deadline=0.0)
     assert G._nn[0][0] is nn and len(nn) == 100
     assert len(G.neighbours(0, 5)[0]) == 200
+
+
+def test_planner_options_of_the_wrong_type_are_range_errors():
+    """What a manifest or `tmpc bench --param` gives the optimal planner's factory is checked
+    by kind: a word for a number, a fraction for a count, a number for a flag are E825 naming
+    the option (not a ValueError from the worker, a lost run); whole floats count."""
+    from tmpc.lang.diagnostics import InputError
+
+    class World:
+        config = None
+
+    class Problem:
+        world = World()
+
+    for over in ({"rewire": "abc"}, {"batch_size": "abc"}, {"batch_size": 2.5},
+                 {"batch_size": True}, {"first_solution": "yes"}, {"until_converged": 1},
+                 {"rewire": float("nan")}, {"rewire": 0}):
+        with pytest.raises(InputError) as exc:
+            OptimalPlanner.from_options(Problem(), 0, over)
+        diag = exc.value.diagnostics[0]
+        assert diag.code == "E825" and next(iter(over)).replace("_", " ") in diag.message, over
+    config = type("Config", (), {"params": (("batch_size", 8.0), ("max_steps", 12))})()
+    Problem.world.config = config
+    try:
+        built = OptimalPlanner.read_options(Problem(), {"rewire": "2", "first_solution": True})
+    finally:
+        Problem.world.config = None
+    assert (built.batch_size, built.max_steps, built.rewire, built.first_solution) == \
+        (8, 12, 2.0, True)

@@ -70,41 +70,49 @@ class OptimalPlanner:
         the run configuration (a tmit-star spec or a manifest's [planner]); the command line's
         ``batch_size``, ``rewire``, ``first_solution``, ``until_converged``,
         ``confirm_resolution`` and ``task_planner`` (``tmpc bench --param``) win. E825 for a
-        value out of range."""
+        value out of range (:meth:`read_options`)."""
+        return cls(problem, seed=seed, options=cls.read_options(problem, overrides))
+
+    @staticmethod
+    def read_options(problem: PlanningProblem, overrides: dict | None = None) -> OptimalOptions:
+        """:meth:`from_options`' options, each checked by kind and range (E825)."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
         base = OptimalOptions()
-        opts = OptimalOptions(
-            batch_size=int(over.get("batch_size", params.get("batch_size", base.batch_size))),
-            batch_budget=int(params.get("batch_budget", base.batch_budget)),
-            rewire=float(over.get("rewire", base.rewire)),
-            first_solution=bool(over.get("first_solution", False)),
-            until_converged=bool(over.get("until_converged", False)),
-            min_steps=int(params.get("min_steps", base.min_steps)),
-            max_steps=int(params.get("max_steps", base.max_steps)),
-            projection_iterations=int(params.get("projection_iterations",
-                                                 base.projection_iterations)),
-            confirm_resolution=_number(over.get("confirm_resolution", params.get(
-                "confirm_resolution", base.confirm_resolution))),
-            task_planner=str(over.get("task_planner", params.get("task_planner",
-                                                                 base.task_planner))))
-        if opts.task_planner not in TASK_PLANNERS:
-            raise InputError(error("E825", f"task planner {opts.task_planner!r} is unknown",
+        raw = dict(
+            batch_size=over.get("batch_size", params.get("batch_size", base.batch_size)),
+            batch_budget=params.get("batch_budget", base.batch_budget),
+            rewire=over.get("rewire", base.rewire),
+            first_solution=over.get("first_solution", False),
+            until_converged=over.get("until_converged", False),
+            min_steps=params.get("min_steps", base.min_steps),
+            max_steps=params.get("max_steps", base.max_steps),
+            projection_iterations=params.get("projection_iterations",
+                                             base.projection_iterations),
+            confirm_resolution=over.get("confirm_resolution", params.get(
+                "confirm_resolution", base.confirm_resolution)),
+            task_planner=over.get("task_planner", params.get("task_planner",
+                                                             base.task_planner)))
+        task_planner = str(raw["task_planner"])
+        if task_planner not in TASK_PLANNERS:
+            raise InputError(error("E825", f"task planner {task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
-        for name, value, ok in (("batch size", opts.batch_size, opts.batch_size >= 1),
-                                ("batch budget", opts.batch_budget, opts.batch_budget >= 1),
-                                ("rewire factor", opts.rewire, opts.rewire > 0),
-                                ("projection iterations", opts.projection_iterations,
-                                 opts.projection_iterations >= 1),
-                                ("confirm resolution", opts.confirm_resolution,
-                                 math.isfinite(opts.confirm_resolution)
-                                 and opts.confirm_resolution > 0)):
-            if not ok:
-                raise InputError(error("E825", f"{name} {value} is out of range", None,
-                                       "batch size, budget and projection iterations >= 1, "
-                                       "rewire factor and confirm resolution > 0"))
-        return cls(problem, seed=seed, options=opts)
+        # (name, kind, lowest): whole numbers and numbers at least / above their bound, flags
+        checks = (("batch_size", int, 1), ("batch_budget", int, 1), ("min_steps", int, 0),
+                  ("max_steps", int, 1), ("projection_iterations", int, 1),
+                  ("rewire", float, 0.0), ("confirm_resolution", float, 0.0),
+                  ("first_solution", bool, None), ("until_converged", bool, None))
+        values = {}
+        for name, kind, low in checks:
+            value = _checked(raw[name], kind, low)
+            if value is None:
+                bound = {int: f"a whole number >= {low}", float: "a finite number > 0",
+                         bool: "true or false"}[kind]
+                raise InputError(error("E825", f"{name.replace('_', ' ')} {raw[name]!r} is out "
+                                       "of range", None, f"{name} takes {bound}"))
+            values[name] = value
+        return OptimalOptions(task_planner=task_planner, **values)
 
     # ---- what the run and its progress line read ---------------------------------------------
     @property
@@ -232,9 +240,20 @@ class OptimalPlanner:
         return OptimalResult(status, path, stats, best.cost)
 
 
-def _number(value) -> float:
-    """``value`` as a float; NaN (out of range: E825) for what is not a number."""
+def _checked(value, kind: type, low):
+    """``value`` as ``kind`` if it is one and in range (``int``: a whole number >= ``low``;
+    ``float``: finite and > ``low``; ``bool``: a flag), else None (E825). A manifest's TOML and
+    `tmpc bench --param` give typed values; the command line's strings are read as numbers."""
+    if kind is bool:
+        return value if isinstance(value, bool) else None
+    if isinstance(value, bool):
+        return None
     try:
-        return float(value)
+        number = float(value)
     except (TypeError, ValueError):
-        return math.nan
+        return None
+    if not math.isfinite(number):
+        return None
+    if kind is int:
+        return int(number) if number.is_integer() and number >= low else None
+    return number if number > low else None
