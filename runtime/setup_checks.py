@@ -264,7 +264,8 @@ def init_meanings(world) -> list[Diagnostic]:
     (docs/language.md, "Semantics modules") while the meaning is false in the scene: the PDDL
     file and the scene disagree (the task planner believes the file, the geometry is the
     scene's; for a placement on a fixed support the scene holds another, plans start from that
-    one: :mod:`tmpc.runtime.start_atoms`). Evaluated once per atom, by the numpy interpreter; for `tmpc check`."""
+    one: :mod:`tmpc.runtime.start_atoms`). Evaluated once per atom, by the numpy interpreter;
+    for `tmpc check`."""
     program = world.program
     if program is None or program.problem is None:
         return []

@@ -440,7 +440,8 @@ def test_a_blocker_put_back_where_it_stood_blocks_there_again(blocks_d):
     assert tasks.put_back([], attempt([]), ["c"]) == []                    # never moved
     # with a blocker that never moved (d stands where it stood): both chains
     assert sorted(tasks.put_back([pick_c, back], attempt([pick_c, back]), ["c", "d"])) == \
-        sorted([atom["(on-surface c red-tray)"], atom["(on d b)"], atom["(on-surface b blue-tray)"]])
+        sorted([atom["(on-surface c red-tray)"], atom["(on d b)"],
+                atom["(on-surface b blue-tray)"]])
     assert tasks.put_back([pick_c, away], attempt([pick_c, away]), ["c"]) == []  # elsewhere
     # learn(): the attempt hit c alone, after c went back where it stood
     tr = attempt([pick_c, back])

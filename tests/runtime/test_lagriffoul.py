@@ -121,7 +121,8 @@ def test_plans_start_from_the_scenes_placements_where_the_files_disagree(worlds)
     for o in world.scene.objects:
         if o.name == "a":
             x, y, z = o.pose.translation
-            o = dataclasses.replace(o, pose=dataclasses.replace(o.pose, translation=(x, y, z + 0.05)))
+            lifted_pose = dataclasses.replace(o.pose, translation=(x, y, z + 0.05))
+            o = dataclasses.replace(o, pose=lifted_pose)
         lifted.append(o)
     up = dataclasses.replace(world, scene=dataclasses.replace(world.scene, objects=lifted))
     assert {s.old[1][0] for s in settled_placements(up)} == {"b", "c"}

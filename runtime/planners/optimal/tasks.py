@@ -251,7 +251,8 @@ class TaskPlans:
         anchors moves (none: for good). Every kept collided attempt against the scene's fixed
         objects: the placement ruled out wherever the support chain of what it goes on holds,
         until a movable object some of them hit as well moves. A placement's literal does not
-        name the hand, so its rules are the action's. ``hits``: :meth:`attempt_hits` of ``tr``, if known."""
+        name the hand, so its rules are the action's. ``hits``: :meth:`attempt_hits` of
+        ``tr``, if known."""
         tp = self.task_planner()
         held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
         unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
