@@ -30,13 +30,11 @@ from tmpc.compiler.lower import Lowerer
 from tmpc.compiler.robot import RobotModel, robot_model
 from tmpc.compiler.state import initial_state
 from tmpc.lang import ast as A
-from tmpc.compiler.rotations import pose_matrix
 from tmpc.lang.diagnostics import Diagnostic, InputError, TmpcError, error, warning
-from tmpc.lang.semantics_module import MEANS_SUFFIX
 from tmpc.lang.world import collision_tolerance
 from tmpc.runtime.collision import CollisionWorld
 from tmpc.runtime.evaluate import Evaluator, Obj
-from tmpc.runtime.start_atoms import settled_placements
+from tmpc.runtime.start_atoms import disagreements
 
 #: the setup errors, in the order a run meets them
 SETUP_CODES = ("E821", "E822", "E581", "E566", "E824", "E834", "E829", "E823")
@@ -266,34 +264,16 @@ def init_meanings(world) -> list[Diagnostic]:
     scene's; for a placement on a fixed support the scene holds another, plans start from that
     one: :mod:`tmpc.runtime.start_atoms`). Evaluated once per atom, by the numpy interpreter;
     for `tmpc check`."""
-    program = world.program
-    if program is None or program.problem is None:
-        return []
-    scope, scene = program.scope, world.scene
-    poses = {o.name: pose_matrix(o.pose) for o in scene.objects}
-    ev = Evaluator(scene, None, None, None, poses, scope)
-    settled = {s.old: s.text for s in settled_placements(world)}
     out = []
-    for item in program.problem.init:
-        if not isinstance(item, A.Atom):
-            continue
-        decl = scope.predicates.get(item.pred.key + MEANS_SUFFIX)
-        if decl is None or decl.semantics is None:
-            continue
-        env = {p.name.key: Obj(t.name.text) for p, t in zip(decl.params, item.args)}
-        try:
-            holds = bool(ev.value(decl.semantics, env))
-        except TmpcError:
-            continue
-        if not holds:
-            new = settled.get((item.pred.key, tuple(t.name.key for t in item.args)))
-            hint = (f"plans start from the scene's {new} instead (docs/language.md, \"Semantics "
-                    f"modules\"; the scene: {scene.path})" if new is not None else
-                    "the task planner starts from the file's atoms; the geometry is the "
-                    f"scene's ({scene.path})")
-            out.append(warning("W840", f"{_atom_text(item)} is in `:init`, but its meaning is "
-                               "false in the scene: the file and the scene disagree", item.span,
-                               hint))
+    path = world.scene.path
+    for item, settled in disagreements(world):
+        hint = (f"plans start from the scene's {settled.text} instead (docs/language.md, "
+                f"\"Semantics modules\"; the scene: {path})" if settled is not None else
+                f"the task planner starts from the file's atoms; the geometry is the scene's "
+                f"({path})")
+        out.append(warning("W840", f"{_atom_text(item)} is in `:init`, but its meaning is "
+                           "false in the scene: the file and the scene disagree", item.span,
+                           hint))
     return out
 
 

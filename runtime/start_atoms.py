@@ -40,18 +40,17 @@ Atom = tuple[str, tuple[str, ...]]      # (predicate key, argument keys)
 
 @dataclass(frozen=True)
 class Settled:
-    """The file's atom ``old`` (written at ``span``), false in the scene, and the scene's
-    ``new`` one, whose meaning is ``distance`` from holding (0: it holds)."""
+    """The file's atom ``old``, false in the scene, and the scene's ``new`` one."""
 
     old: Atom
     new: Atom
     text: str           # the new atom as the user spells it: "(on-surface a table)"
-    distance: float
-    span: object = None
 
 
-def settled_placements(world) -> list[Settled]:
-    """The `:init` atoms the scene replaces (the module docstring), in file order."""
+def disagreements(world) -> list[tuple[A.Atom, Settled | None]]:
+    """Each `:init` atom whose predicate has a meaning (``P~means``) that is false in the
+    scene (W840), with the scene's atom that replaces it where plans start (the module
+    docstring), else None. By the numpy interpreter, no kernel; in file order."""
     program = world.program
     if program is None or program.problem is None:
         return []
@@ -61,33 +60,50 @@ def settled_placements(world) -> list[Settled]:
     ev = Evaluator(scene, None, None, None, poses, scope)
     atoms = [item for item in program.problem.init if isinstance(item, A.Atom)]
     written = {_key(a) for a in atoms}
-    out: list[Settled] = []
+    out: list[tuple[A.Atom, Settled | None]] = []
     for item in atoms:
         decl = scope.predicates.get(item.pred.key + MEANS_SUFFIX)
-        sym = scope.predicates.get(item.pred.key)
-        if decl is None or decl.semantics is None or sym is None or len(item.args) != 2 \
-                or item.args[1].name.key not in fixed:
+        if decl is None or decl.semantics is None:
             continue
-        x = item.args[0].name.text
-        if _distance(ev, decl, (x, item.args[1].name.text)) == 0.0:
-            continue
-        want = type_keys(sym.params[1].type)
-        best = None
-        for key, info in scope.objects.items():
-            if key not in fixed or key == item.args[0].name.key or \
-                    not scope.compatible(info.types, want):
+        env = {p.name.key: Obj(t.name.text) for p, t in zip(decl.params, item.args)}
+        try:
+            if bool(ev.value(decl.semantics, env)):
                 continue
-            w = _distance(ev, decl, (x, info.name.text))
-            if w is not None and (best is None or w < best[0]):
-                best = (w, info.name.text)
-        if best is None or best[0] > SETTLE:
+        except TmpcError:
             continue
-        new = (item.pred.key, (item.args[0].name.key, best[1].lower()))
-        if new in written:
-            continue
-        out.append(Settled(_key(item), new, f"({item.pred.text} {x} {best[1]})", best[0],
-                           item.span))
+        out.append((item, _settle(ev, scope, decl, item, fixed, written)))
     return out
+
+
+def settled_placements(world) -> list[Settled]:
+    """The `:init` atoms the scene replaces (the module docstring), in file order."""
+    return [s for _, s in disagreements(world) if s is not None]
+
+
+def _settle(ev: Evaluator, scope, decl, item: A.Atom, fixed: set[str],
+            written: set[Atom]) -> Settled | None:
+    """The scene's atom for ``item`` (false in the scene): the fixed support of the second
+    argument's type whose meaning is nearest to holding, within :data:`SETTLE`; None for an
+    atom that is not a placement of an object on a fixed support."""
+    sym = scope.predicates.get(item.pred.key)
+    if sym is None or len(item.args) != 2 or item.args[1].name.key not in fixed:
+        return None
+    x = item.args[0].name.text
+    want = type_keys(sym.params[1].type)
+    best = None
+    for key, info in scope.objects.items():
+        if key not in fixed or key == item.args[0].name.key or \
+                not scope.compatible(info.types, want):
+            continue
+        w = _distance(ev, decl, (x, info.name.text))
+        if w is not None and (best is None or w < best[0]):
+            best = (w, info.name.text)
+    if best is None or best[0] > SETTLE:
+        return None
+    new = (item.pred.key, (item.args[0].name.key, best[1].lower()))
+    if new in written:
+        return None
+    return Settled(_key(item), new, f"({item.pred.text} {x} {best[1]})")
 
 
 def _key(a: A.Atom) -> Atom:
@@ -103,4 +119,4 @@ def _distance(ev: Evaluator, decl, args: tuple[str, ...]) -> float | None:
         return None
 
 
-__all__ = ["SETTLE", "Settled", "settled_placements"]
+__all__ = ["SETTLE", "Settled", "disagreements", "settled_placements"]

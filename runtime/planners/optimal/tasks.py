@@ -92,6 +92,12 @@ class Transition:
         self.successes += 1
         self.by_mode[mode_id] = self.by_mode.get(mode_id, 0) + 1
 
+    @property
+    def unreached(self) -> bool:
+        """Never held anywhere (no collided attempt) and its closest attempt a real miss
+        (:data:`MISS`)."""
+        return not self.collided and self.best_fail is not None and self.best_fail[0] >= MISS
+
     def record_failure(self, mode: Mode, q: np.ndarray, held: bool, distance: float) -> None:
         """A failed attempt at ``q`` (``held``: the precondition held there, a collision
         failed it); the best one (smallest distance, the precondition false) is kept for the
@@ -183,7 +189,7 @@ class TaskPlans:
         if tr is None or tr.action is None or tr.failures < RULE_FAILURES:
             return False
         if not tr.collided:
-            return tr.best_fail is not None and tr.best_fail[0] >= MISS
+            return tr.unreached
         return tr.failures >= FIXED_FAILURES and self.fixed_rule_due(tr)
 
     def fixed_rule_due(self, tr: Transition) -> bool:
@@ -195,13 +201,10 @@ class TaskPlans:
         known = self._fixed_due.get(id(tr))
         if known is not None and known[0] == key:
             return known[1]
-        due = False
-        if len(tr.collided) >= KEEP_COLLIDED and all(fixed for _, fixed in self.attempt_hits(tr)):
-            tp = self.task_planner()
-            held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
-            due = any(lit.positive and lit.predicate.endswith(MEANS) and self.support_chain(
-                tr.sym, [x for x in lit.args if x.lower() in tp.movable and x.lower() not in held])
-                for lit in tr.action.pre_geometric)
+        due = len(tr.collided) >= KEEP_COLLIDED and \
+            all(fixed for _, fixed in self.attempt_hits(tr)) and \
+            any(placement and anchors and self.support_chain(tr.sym, anchors)
+                for _, anchors, placement in self.anchored(tr))
         self._fixed_due[id(tr)] = (key, due)
         return due
 
@@ -254,18 +257,13 @@ class TaskPlans:
         name the hand, so its rules are the action's. ``hits``: :meth:`attempt_hits` of
         ``tr``, if known."""
         tp = self.task_planner()
-        held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
-        unreached = not tr.collided and tr.best_fail is not None and tr.best_fail[0] >= MISS
+        unreached = tr.unreached
         hits = self.attempt_hits(tr) if hits is None else hits
         fixed = bool(hits) and all(hit[1] for hit in hits)
         # movable objects some attempts hit besides the fixed ones: the rule holds until one
         # of them moves (none: wherever the chain holds)
         movers = sorted(set().union(*(hit[0] for hit in hits))) if fixed else []
-        for lit in tr.action.pre_geometric:
-            if not lit.positive:
-                continue
-            anchors = [x for x in lit.args if x.lower() in tp.movable and x.lower() not in held]
-            placement = lit.predicate.endswith(MEANS)
+        for lit, anchors, placement in self.anchored(tr):
             if unreached and (tp.add_action_rule(prefix, tr.action, anchors) if placement else
                               anchors and tp.add_evidence(prefix, lit, False, anchors)):
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
@@ -273,6 +271,17 @@ class TaskPlans:
                 chain = self.support_chain(tr.sym, anchors)
                 if chain and tp.add_action_rule(prefix, tr.action, movers, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
+
+    def anchored(self, tr: Transition) -> list[tuple]:
+        """``(literal, anchors, placement?)`` for each positive geometric literal of ``tr``'s
+        action: its anchors are the movable objects it names that the robot does not hold in
+        ``tr``'s attempts (the block grasped, the one placed on), and a placement's literal is
+        a meaning (``P~means``)."""
+        movable = self.task_planner().movable
+        held = {h.lower() for mode in self._modes(tr) for h in (mode.held or {})}
+        return [(lit, [x for x in lit.args if x.lower() in movable and x.lower() not in held],
+                 lit.predicate.endswith(MEANS))
+                for lit in tr.action.pre_geometric if lit.positive]
 
     def put_back(self, prefix: list, tr: Transition, blockers: list[str]) -> list[int]:
         """The atoms that say where ``blockers`` stand (:meth:`support_chain`) if some of them
