@@ -62,6 +62,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                                   "confirms a path found (default 0.05, the resolution)"),
     "task_planner": (str, "the optimal and decoupled planners' task planner to a first "
                           "solution: auto, sat or greedy (default auto: docs/planning.md)"),
+    "task_weight": (float, "the optimal planner's greedy task plans shortened by weighted A* "
+                           "with this weight (default 2; 0: off; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

@@ -68,7 +68,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                            "transitions, "
                            "asymmetric search over a multimodal graph (thesis ch. 4, tmit-star)",
                            ("batch_size", "rewire", "first_solution", "until_converged",
-                            "task_planner", "confirm_resolution", "simplify")),
+                            "task_planner", "task_weight", "confirm_resolution",
+                            "simplify")),
     "decoupled": PlannerSpec(_decoupled, "the classical baseline: SAT task plans, projected "
                              "transitions, each motion by an OMPL planner (--motion-planner), "
                              "backtracking", ("motion_planner", "motion_budget", "samples",

@@ -128,13 +128,38 @@ class GreedyTaskPlanner:
 
     takes_blockers = True               # :meth:`add_evidence` takes ``blockers``
 
-    def __init__(self, problem: GroundProblem):
+    def __init__(self, problem: GroundProblem, weight: float | None = None):
         self.problem = problem
         self.h = FFHeuristic(problem)
         self.root = _Prefix()
         used: set[Use] = set()
+        #: per literal use, the ids of the actions whose precondition has it
+        self.using: dict[Use, set[int]] = {}
         for a in problem.actions:
-            _uses(a.precondition, used)
+            mine: set[Use] = set()
+            _uses(a.precondition, mine)
+            used |= mine
+            for u in mine:
+                self.using.setdefault(u, set()).add(a.id)
+        #: per action, the discrete part of its precondition: (action, atoms true, atoms
+        #: false, whether more than those remains), tested without the formula where it can
+        self.tests = [(a, a.pre.pos_mask, a.pre.neg_mask, a.pre.extra is not None)
+                      for a in problem.actions]
+        # successors: each action under the precondition atom fewest actions need (the
+        # others, without a positive atom, always tried), so an expansion visits only the
+        # actions one of whose atoms holds, not every ground action (Blocks World F: 190)
+        need: dict[int, int] = {}
+        for a in problem.actions:
+            for atom in a.pre.pos:
+                need[atom] = need.get(atom, 0) + 1
+        self.under: dict[int, list[int]] = {}
+        self.always: list[int] = []
+        for a in problem.actions:
+            if a.pre.pos:
+                key = min(a.pre.pos, key=lambda atom: (need[atom], atom))
+                self.under.setdefault(key, []).append(a.id)
+            else:
+                self.always.append(a.id)
         _uses(problem.goal.formula, used)
         self.used = frozenset(used)
         #: per action, the bit mask of the objects its kinematic effects move (nonzero: the
@@ -158,6 +183,14 @@ class GreedyTaskPlanner:
         #: out where all the atoms hold and none of the objects has moved
         self.action_rules: dict[int, list[tuple[int, int]]] = {}
         self.expansions = 0
+        #: after the greedy search, weighted A* (depth + ``weight`` h_FF) for a shorter plan,
+        #: within ``weighted_budget`` times the greedy search's expansions (at least
+        #: ``weighted_floor``); None: the greedy plan
+        self.weight: float | None = weight
+        self.weighted_budget = 4
+        self.weighted_floor = 2_000
+        #: plans the weighted search shortened
+        self.shortened = 0
 
     # ---- constraints ----------------------------------------------------------------------
     def _node(self, prefix: Iterable[GroundAction]) -> _Prefix:
@@ -313,10 +346,34 @@ class GreedyTaskPlanner:
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
         """A plan of ``min_steps..max_steps`` steps satisfying every constraint, found greedily
-        (not the shortest); ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
+        (not the shortest), and then, with ``weight``, by weighted A* within ``weighted_budget``
+        times the greedy search's expansions (its plan if it finds one: at most ``weight``
+        times the shortest); ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
+        t0 = time.perf_counter()
+        before = self.expansions
+        res = self._search(max_steps, time_limit, min_steps, None, None)
+        if res.status != SOLVED or not self.weight:
+            return res
+        budget = max(self.weighted_floor, self.weighted_budget * (self.expansions - before))
+        left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+        if left is not None and left <= 0:
+            return res
+        short = self._search(max_steps, left, min_steps, self.weight, budget)
+        if short.status == SOLVED and len(short.actions) < len(res.actions):
+            self.shortened += 1
+            return PlanResult(SOLVED, short.actions, len(short.actions),
+                              seconds=time.perf_counter() - t0)
+        return res
+
+    def _search(self, max_steps: int, time_limit: float | None, min_steps: int,
+                weight: float | None, budget: int | None) -> PlanResult:
+        """Best-first search ordered by h_FF (``weight`` None: greedy, ties to the shallower)
+        or by depth + ``weight`` h_FF (weighted A*), ``timeout`` after ``budget``
+        expansions."""
         t0 = time.perf_counter()
         deadline = math.inf if time_limit is None else t0 + time_limit
         p = self.problem
+        expanded = 0
 
         def result(status: str, plan=None) -> PlanResult:
             return PlanResult(status, plan, len(plan) if plan else 0,
@@ -326,7 +383,6 @@ class GreedyTaskPlanner:
             return result(UNREACHABLE)
         if self.root.excluded:
             return result(EXHAUSTED)
-        actions = p.actions
         # per node: (state, trie node, evidence known, moved objects, parent, action id, depth,
         # the literal values known there)
         nodes: list[tuple] = []
@@ -351,20 +407,28 @@ class GreedyTaskPlanner:
             if h == math.inf or depth >= max_steps:
                 return False
             nodes.append(node)
-            heapq.heappush(heap, (h, depth, len(nodes) - 1))
+            key = (h, depth) if weight is None else (depth + weight * h, h)
+            heapq.heappush(heap, (*key, len(nodes) - 1))
             return False
 
         if push(p.init, self.root, dict(self.root.evidence), 0, -1, -1, 0):
             return result(SOLVED, [])
         while heap:
-            if self.expansions % 64 == 0 and time.perf_counter() >= deadline:
+            if self.expansions % 64 == 0 and time.perf_counter() >= deadline or \
+                    budget is not None and expanded >= budget:
                 return result(TIMEOUT)
             self.expansions += 1
-            _, depth, i = heapq.heappop(heap)
-            state, trie, known, moved, _, _, _, values = nodes[i]
-            for a in actions:
-                if not a.pre.holds(state) or (values and
-                                              not _holds(a.precondition, state, values)):
+            expanded += 1
+            i = heapq.heappop(heap)[2]
+            state, trie, known, moved, _, _, depth, values = nodes[i]
+            # the actions a literal known false may rule out (the others' geometric literals
+            # are all possibly true)
+            doubtful = set().union(*(self.using.get(u, ()) for u, v in values.items()
+                                     if not v)) if values else ()
+            for a, pos, neg, extra in self._candidates(state):
+                if state & pos != pos or state & neg or \
+                        extra and not a.pre.holds(state) or \
+                        a.id in doubtful and not _holds(a.precondition, state, values):
                     continue
                 if self.action_rules and self._ruled_out(a.id, state, moved):
                     continue
@@ -378,6 +442,21 @@ class GreedyTaskPlanner:
                 if push(nxt, child, k, moved | self.moves[a.id], i, a.id, depth + 1):
                     return result(SOLVED, self._path(nodes))
         return result(EXHAUSTED)
+
+    def _candidates(self, state: int) -> list[tuple]:
+        """The tests of the actions whose indexing atom holds in ``state`` (and those
+        without one), in the order of their ids, as the search expands them."""
+        ids = list(self.always)
+        under, rest = self.under, state
+        while rest:
+            low = rest & -rest
+            found = under.get(low.bit_length() - 1)
+            if found:
+                ids += found
+            rest ^= low
+        ids.sort()
+        tests = self.tests
+        return [tests[i] for i in ids]
 
     def _path(self, nodes: list) -> list[GroundAction]:
         out = []
@@ -397,10 +476,10 @@ class PortfolioTaskPlanner:
     planner through the step that breaks it, and the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
-                 sat_clauses: int = 200_000):
+                 sat_clauses: int = 200_000, weight: float | None = None):
         self.problem = problem
         self.sat = TaskPlanner(problem, geometric=True)
-        self.greedy = GreedyTaskPlanner(problem)
+        self.greedy = GreedyTaskPlanner(problem, weight)
         self.stall = stall
         self.sat_budget = sat_budget
         #: no SAT call when its shortest horizon holds more step clauses than this: Z3's first

@@ -5,11 +5,12 @@ constraints, and no greedy plan shorter than the SAT planner's shortest), and bl
 
 from __future__ import annotations
 
+import itertools
 import random
 
 import pytest
 
-from tests.compiler.test_smt import _arm, bfs_length, random_problem
+from tests.compiler.test_smt import _arm, _ground, bfs_length, random_problem
 from tmpc.compiler.ground import GeoLiteral
 from tmpc.runtime.planners.greedy import GreedyTaskPlanner, PortfolioTaskPlanner
 from tmpc.runtime.planners.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
@@ -512,6 +513,14 @@ def test_a_plan_stuck_where_its_arm_cannot_reach_is_hopeless(blocks_d):
     assert stacking(FIXED_FAILURES, hits["fixed"]).hopeless()
     assert not stacking(FIXED_FAILURES - 1, hits["fixed"]).hopeless()
     assert not stacking(FIXED_FAILURES, hits["block"]).hopeless()     # a block: a blocker
+    # whatever the failures, STUCK_FAILURES of them in this plan end it; those of the plans
+    # before it do not count
+    from tmpc.runtime.planners.optimal.tasks import STUCK_FAILURES
+    assert stacking(STUCK_FAILURES, hits["block"]).hopeless()
+    assert not stacking(STUCK_FAILURES - 1, hits["block"]).hopeless()
+    earlier = stacking(STUCK_FAILURES, hits["block"])
+    earlier.failures_before = {id(tr): 1 for tr in earlier.plan_transitions}
+    assert not earlier.hopeless()
     stuck = plan(RULE_FAILURES)
     stuck.plan = None                                               # no plan (exhausted)
     assert not stuck.hopeless()
@@ -524,3 +533,72 @@ def test_a_plan_stuck_where_its_arm_cannot_reach_is_hopeless(blocks_d):
         tr.record_failure(mode, p.q0, False, 0.2)
     tasks.plan, tasks.plan_transitions = [r], [tr]
     assert tasks.hopeless()
+
+
+BLOCKS = """(define (domain bw) (:requirements :strips)
+  (:predicates (on ?x ?y) (ontable ?x) (clear ?x) (holding ?x) (empty))
+  (:action pickup :parameters (?x) :precondition (and (clear ?x) (ontable ?x) (empty))
+    :effect (and (holding ?x) (not (ontable ?x)) (not (clear ?x)) (not (empty))))
+  (:action putdown :parameters (?x) :precondition (holding ?x)
+    :effect (and (ontable ?x) (clear ?x) (empty) (not (holding ?x))))
+  (:action stack :parameters (?x ?y) :precondition (and (holding ?x) (clear ?y))
+    :effect (and (on ?x ?y) (clear ?x) (empty) (not (holding ?x)) (not (clear ?y))))
+  (:action unstack :parameters (?x ?y) :precondition (and (on ?x ?y) (clear ?x) (empty))
+    :effect (and (holding ?x) (clear ?y) (not (on ?x ?y)) (not (clear ?x))
+                 (not (empty)))))"""
+
+
+def _towers(rng: random.Random, blocks: list[str]) -> list[str]:
+    towers: list[list[str]] = []
+    for b in rng.sample(blocks, len(blocks)):
+        if towers and rng.random() < 0.6:
+            rng.choice(towers).append(b)
+        else:
+            towers.append([b])
+    facts = []
+    for t in towers:
+        facts += [f"(ontable {t[0]})", f"(clear {t[-1]})"]
+        facts += [f"(on {above} {below})" for below, above in itertools.pairwise(t)]
+    return facts
+
+
+def test_weighted_search_shortens_greedy_plans():
+    """Random six-block problems: the weighted search's plan replays, is never longer than the
+    greedy one nor shorter than breadth-first search's, and shortens some (seed 8: 14 steps
+    to the optimal 10)."""
+    shortened = 0
+    for seed in range(12):
+        rng = random.Random(seed)
+        blocks = list("abcdef")
+        init = _towers(rng, blocks) + ["(empty)"]
+        goal = [f for f in _towers(rng, blocks) if not f.startswith("(clear")]
+        gp = _ground(BLOCKS, f"(define (problem p) (:domain bw) (:objects {' '.join(blocks)}) "
+                             f"(:init {' '.join(init)}) (:goal (and {' '.join(goal)})))")
+        greedy = GreedyTaskPlanner(gp).next_plan(max_steps=40)
+        planner = GreedyTaskPlanner(gp, weight=2.0)
+        weighted = planner.next_plan(max_steps=40)
+        assert greedy.status == weighted.status == SOLVED
+        assert simulate(gp, weighted.actions)[0]
+        assert bfs_length(gp) <= len(weighted.actions) <= len(greedy.actions)
+        shortened += planner.shortened
+        assert planner.shortened == (len(weighted.actions) < len(greedy.actions))
+    assert shortened >= 1
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_indexed_successors_are_every_applicable_action(seed):
+    """The search visits only the actions whose indexing atom holds: along a random walk,
+    those that pass the discrete test are exactly the actions applicable there."""
+    rng = random.Random(seed)
+    gp = random_problem(seed)
+    g = GreedyTaskPlanner(gp)
+    state = gp.init
+    for _ in range(12):
+        found = [a.id for a, pos, neg, extra in g._candidates(state)
+                 if state & pos == pos and not state & neg and
+                 (not extra or a.pre.holds(state))]
+        assert found == [a.id for a in gp.actions if a.pre.holds(state)]
+        moves = [a for a, _ in gp.successors(state)]
+        if not moves:
+            break
+        state = gp.apply(state, rng.choice(moves))

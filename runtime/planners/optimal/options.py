@@ -82,6 +82,10 @@ class OptimalOptions:
     #: with blocker rules: :mod:`tmpc.runtime.planners.greedy`); ``auto``: greedy to a first
     #: solution, else sat
     task_planner: str = "auto"
+    #: the greedy task planner's plan is shortened by weighted A* (depth + this x h_FF) when a
+    #: search of at most 4 times its expansions finds a shorter one (tmpc's; 0: off). Blocks
+    #: World E's greedy plans had 24-28 steps where 16 do (docs/planning.md)
+    task_weight: float = 2.0
     until_converged: bool = False
     converged_solutions: int = 10
     converged_ratio: float = 0.10

@@ -93,7 +93,8 @@ class OptimalPlanner:
             confirm_resolution=over.get("confirm_resolution", params.get(
                 "confirm_resolution", base.confirm_resolution)),
             task_planner=over.get("task_planner", params.get("task_planner",
-                                                             base.task_planner)))
+                                                             base.task_planner)),
+            task_weight=over.get("task_weight", params.get("task_weight", base.task_weight)))
         task_planner = str(raw["task_planner"])
         if task_planner not in TASK_PLANNERS:
             raise InputError(error("E825", f"task planner {task_planner!r} is unknown",
@@ -102,10 +103,12 @@ class OptimalPlanner:
         checks = (("batch_size", int, 1), ("batch_budget", int, 1), ("min_steps", int, 0),
                   ("max_steps", int, 1), ("projection_iterations", int, 1),
                   ("rewire", float, 0.0), ("confirm_resolution", float, 0.0),
-                  ("first_solution", bool, None), ("until_converged", bool, None))
+                  ("first_solution", bool, None), ("until_converged", bool, None),
+                  ("task_weight", float, 0.0))
         values = {}
         for name, kind, low in checks:
-            value = _checked(raw[name], kind, low)
+            value = 0.0 if name == "task_weight" and _checked(raw[name], int, 0) == 0 else \
+                _checked(raw[name], kind, low)
             if value is None:
                 bound = {int: f"a whole number >= {low}", float: "a finite number > 0",
                          bool: "true or false"}[kind]
