@@ -196,3 +196,44 @@ print("ok")
     r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-2000:]
+
+
+def test_lazy_motions_follow_the_whole_chain_and_a_failed_motion_backtracks(tabletop_run):
+    """With ``lazy_motions`` every step's transition configuration comes before the first
+    motion; a motion that fails sends the search back to its step's next configuration, the
+    motions before it kept; the plan validates. The eager planner (a motion per step) plans
+    it too."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    problem, _ = tabletop_run
+    planner = DecoupledPlanner(problem, seed=0)
+    calls: list[str] = []
+    failed: list[int] = []
+    samples, motion = planner.transition_samples, planner.motion
+
+    def sampling(*args):
+        calls.append("sample")
+        return samples(*args)
+
+    def moving(mode, q0, q1, deadline):
+        calls.append("motion")
+        if calls.count("motion") == 2 and not failed:      # the second motion fails once
+            failed.append(len(calls))
+            return None
+        return motion(mode, q0, q1, deadline)
+
+    planner.transition_samples, planner.motion = sampling, moving
+    result = planner.solve(60.0)
+    assert result.status == "solved" and failed
+    steps = len([a for _, _, a in result.path if a is not None])
+    first = calls.index("motion")
+    assert calls[:first] == ["sample"] * first and first >= steps
+    # after the failure: the failed step's configurations, then motions from that step on
+    # (the first motion is not planned again)
+    assert calls.count("motion") == steps + 1
+    _, report = _validate(problem, result, "decoupled")
+    assert report.valid, report.text()
+    eager = DecoupledPlanner(problem, seed=0, options=DecoupledOptions(lazy_motions=False))
+    plain = eager.solve(60.0)
+    assert plain.status == "solved"
+    _, report = _validate(problem, plain, "decoupled")
+    assert report.valid, report.text()

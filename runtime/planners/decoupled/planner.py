@@ -61,6 +61,9 @@ class DecoupledOptions:
     #: back or both; tmpc's), this many steps of ``retreat_step`` metres (0: off)
     retreat_steps: int = 4
     retreat_step: float = 0.025
+    #: a plan's transition configurations first, its motions once every step has one
+    #: (:meth:`DecoupledPlanner.follow_lazily`; tmpc's; off: a motion at every step)
+    lazy_motions: bool = True
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -186,7 +189,10 @@ class DecoupledPlanner:
 
     def follow(self, steps: list, deadline: float) -> list | None:
         """The plan ``steps`` (``(action, transition)``; action None: the goal) made geometric
-        depth first; the path of ``(q, mode, action)`` states, or None."""
+        depth first; the path of ``(q, mode, action)`` states, or None. With
+        ``lazy_motions`` the transitions come first (:meth:`follow_lazily`)."""
+        if self.opt.lazy_motions:
+            return self.follow_lazily(steps, deadline)
         p = self.p
         budget = [max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))]
         self.plan_depth = 0
@@ -220,6 +226,74 @@ class DecoupledPlanner:
             stack.append((target.copy(), succ, path + seg + [(target.copy(), mode, action)],
                           None))
         return None
+
+    def follow_lazily(self, steps: list, deadline: float) -> list | None:
+        """:meth:`follow` with the motions planned last: depth first over the steps'
+        transition configurations alone (each taken is one of the plan's budget), and once
+        every step has one, the motions between them, the first that fails sending the
+        search back to its step's next configuration (the motions before it are kept). Most
+        task plans fail at a transition: Blocks World E's decoupled runs planned 1,050
+        motions in 300 s (250 s of them) for 50 plans, most of them on plans that failed
+        later at a step no motion could change."""
+        p = self.p
+        budget = max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))
+        self.plan_depth = 0
+        # per depth: the configuration, its mode, the action into it (None at the root and
+        # the goal), the motion into it (None: not planned yet), the next step's samples left
+        stack: list[list] = [[p.q0.copy(), p.initial, None, None, None]]
+        while stack and time.perf_counter() < deadline and budget > 0:
+            depth = len(stack) - 1
+            self.plan_depth = max(self.plan_depth, depth)
+            if depth == len(steps):
+                failed = self.chain_motions(stack, deadline)
+                if failed is None:
+                    return self.chain_path(stack)
+                budget -= 1
+                del stack[failed:]           # that configuration's step: its next sample
+                continue
+            q, mode, _, _, todo = stack[-1]
+            action, tr = steps[depth]
+            if todo is None:
+                todo = stack[-1][4] = self.transition_samples(mode, action, q, tr)
+            if not todo:
+                self.counts["backtracks"] += 1
+                stack.pop()
+                continue
+            target = todo.pop(0)
+            budget -= 1
+            tr.count(mode.id)
+            self.counts["transitions"] += 1
+            succ = mode
+            if action is not None:
+                succ = p.successor_mode(mode, action, target, self.mode_count)
+                self.mode_count += 1
+            stack.append([target.copy(), succ, action, None, None])
+        return None
+
+    def chain_motions(self, stack: list, deadline: float) -> int | None:
+        """Plan the motions of the chain ``stack`` not planned yet, in order; the depth of
+        the first that fails, or None when all are planned."""
+        for i in range(1, len(stack)):
+            if stack[i][3] is None:
+                motion = self.motion(stack[i - 1][1], stack[i - 1][0], stack[i][0], deadline)
+                if motion is None:
+                    return i
+                stack[i][3] = motion
+        return None
+
+    @staticmethod
+    def chain_path(stack: list) -> list:
+        """The ``(q, mode, action)`` path of a chain whose motions are planned: each motion
+        in the mode it starts in, then the transition (the goal's ends the path there)."""
+        path: list = []
+        for i in range(1, len(stack)):
+            mode = stack[i - 1][1]
+            q, _, action, motion, _ = stack[i]
+            path += [(x.copy(), mode, None) for x in motion[:-1]]
+            if action is None:               # the goal's literals hold here
+                return path + [(q.copy(), mode, None)]
+            path.append((q.copy(), mode, action))
+        return path + [(stack[-1][0].copy(), stack[-1][1], None)]
 
     def shortcut(self, path: list, deadline: float = math.inf) -> list:
         """The final plan's OMPL motions shortcut by tmpc
