@@ -347,8 +347,9 @@ class GreedyTaskPlanner:
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
         """A plan of ``min_steps..max_steps`` steps satisfying every constraint, found greedily
         (not the shortest), and then, with ``weight``, by weighted A* within ``weighted_budget``
-        times the greedy search's expansions (its plan if it finds one: at most ``weight``
-        times the shortest); ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
+        times the greedy search's expansions (its plan if it is shorter; goals are taken when
+        generated, so its bound of ``weight`` times the shortest is loose by a step);
+        ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
         t0 = time.perf_counter()
         before = self.expansions
         res = self._search(max_steps, time_limit, min_steps, None, None)

@@ -229,19 +229,25 @@ class DecoupledPlanner:
 
     def follow_lazily(self, steps: list, deadline: float) -> list | None:
         """:meth:`follow` with the motions planned last: depth first over the steps'
-        transition configurations alone (each taken is one of the plan's budget), and once
-        every step has one, the motions between them, the first that fails sending the
-        search back to its step's next configuration (the motions before it are kept). Most
-        task plans fail at a transition: Blocks World E's decoupled runs planned 1,050
-        motions in 300 s (250 s of them) for 50 plans, most of them on plans that failed
-        later at a step no motion could change."""
+        transition configurations alone (at most the plan's budget of them), and once every
+        step has one, the motions between them in order. The first motion that fails sends
+        the search back to its step's next configuration (the motions before it kept), and
+        from then on the plan is followed as :meth:`follow` does, a motion with every
+        configuration taken, on the plan's motion budget: a plan whose transitions all hold
+        is worth its motions, and with motions last again every failed motion would cost
+        the configurations of all the steps after it. Most task plans fail at a transition:
+        Blocks World E's decoupled runs planned 1,050 motions in 300 s (250 s of them) for
+        50 plans, most of them on plans that failed later at a step no motion could
+        change."""
         p = self.p
         budget = max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))
+        targets = budget                     # configurations taken before the first chain
+        eager = False
         self.plan_depth = 0
         # per depth: the configuration, its mode, the action into it (None at the root and
         # the goal), the motion into it (None: not planned yet), the next step's samples left
         stack: list[list] = [[p.q0.copy(), p.initial, None, None, None]]
-        while stack and time.perf_counter() < deadline and budget > 0:
+        while stack and time.perf_counter() < deadline and budget > 0 and targets > 0:
             depth = len(stack) - 1
             self.plan_depth = max(self.plan_depth, depth)
             if depth == len(steps):
@@ -250,6 +256,7 @@ class DecoupledPlanner:
                     return self.chain_path(stack)
                 budget -= 1
                 del stack[failed:]           # that configuration's step: its next sample
+                eager = True
                 continue
             q, mode, _, _, todo = stack[-1]
             action, tr = steps[depth]
@@ -260,14 +267,21 @@ class DecoupledPlanner:
                 stack.pop()
                 continue
             target = todo.pop(0)
-            budget -= 1
+            motion = None
+            if eager:
+                motion = self.motion(mode, q, target, deadline)
+                budget -= 1
+                if motion is None:
+                    continue
+            else:
+                targets -= 1
             tr.count(mode.id)
             self.counts["transitions"] += 1
             succ = mode
             if action is not None:
                 succ = p.successor_mode(mode, action, target, self.mode_count)
                 self.mode_count += 1
-            stack.append([target.copy(), succ, action, None, None])
+            stack.append([target.copy(), succ, action, motion, None])
         return None
 
     def chain_motions(self, stack: list, deadline: float) -> int | None:
