@@ -749,7 +749,8 @@ def test_planner_options_of_the_wrong_type_are_range_errors():
 
     for over in ({"rewire": "abc"}, {"batch_size": "abc"}, {"batch_size": 2.5},
                  {"batch_size": True}, {"first_solution": "yes"}, {"until_converged": 1},
-                 {"rewire": float("nan")}, {"rewire": 0}):
+                 {"rewire": float("nan")}, {"rewire": 0}, {"task_weight": -1},
+                 {"task_weight": "abc"}):
         with pytest.raises(InputError) as exc:
             OptimalPlanner.from_options(Problem(), 0, over)
         diag = exc.value.diagnostics[0]
@@ -762,3 +763,6 @@ def test_planner_options_of_the_wrong_type_are_range_errors():
         Problem.world.config = None
     assert (built.batch_size, built.max_steps, built.rewire, built.first_solution) == \
         (8, 12, 2.0, True)
+    assert built.task_weight == 2.0                       # the default: greedy plans shortened
+    assert OptimalPlanner.read_options(Problem(), {"task_weight": 0}).task_weight == 0.0
+    assert OptimalPlanner.read_options(Problem(), {"task_weight": "3"}).task_weight == 3.0

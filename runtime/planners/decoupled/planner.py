@@ -15,10 +15,12 @@ first), and the motion to each is planned (``motion_planner``, ``motion_budget``
 one succeeds; the step's successor mode is then derived at that configuration. A step none of
 whose samples can be reached sends the search back to the previous step's next sample; a plan
 whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
-``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. When
-no task plan is left (the exclusions and blockers were learnt from a few samples per step, not
-proofs), task planning starts afresh with new samples, until the time limit. A goal with
-geometric literals is one more step (the goal's projection). The final plan's motions are
+``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
+``lazy_motions`` (the default) the motions wait until every step has a configuration
+(:meth:`DecoupledPlanner.follow_lazily`). When no task plan is left (the exclusions and
+blockers were learnt from a few samples per step, not proofs), task planning starts afresh
+with new samples, until the time limit. A goal with geometric literals is one more step (the
+goal's projection). The final plan's motions are
 shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time
 limit) unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead).
 Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
