@@ -64,6 +64,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                           "solution: auto, sat or greedy (default auto: docs/planning.md)"),
     "task_weight": (float, "the optimal planner's greedy task plans shortened by weighted A* "
                            "with this weight (default 2; 0: off; docs/planning.md)"),
+    "lazy_motions": (bool, "the decoupled planner plans a task plan's motions once its "
+                           "transitions all hold (default false; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

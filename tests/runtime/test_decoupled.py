@@ -205,7 +205,7 @@ def test_lazy_motions_follow_the_whole_chain_and_a_failed_motion_backtracks(tabl
     it too."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
     problem, _ = tabletop_run
-    planner = DecoupledPlanner(problem, seed=0)
+    planner = DecoupledPlanner(problem, seed=0, options=DecoupledOptions(lazy_motions=True))
     calls: list[str] = []
     failed: list[int] = []
     samples, motion = planner.transition_samples, planner.motion
@@ -232,8 +232,25 @@ def test_lazy_motions_follow_the_whole_chain_and_a_failed_motion_backtracks(tabl
     assert calls.count("motion") == steps + 1
     _, report = _validate(problem, result, "decoupled")
     assert report.valid, report.text()
-    eager = DecoupledPlanner(problem, seed=0, options=DecoupledOptions(lazy_motions=False))
+    eager = DecoupledPlanner(problem, seed=0)                 # the default: eager
+    assert not eager.opt.lazy_motions
     plain = eager.solve(60.0)
     assert plain.status == "solved"
     _, report = _validate(problem, plain, "decoupled")
     assert report.valid, report.text()
+
+
+def test_lazy_motions_come_from_the_manifest():
+    """A manifest's ``[planner] lazy_motions = true`` (Blocks World E's) reaches the planner;
+    without it the decoupled planner plans a motion at every step."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+
+    class World:
+        config = type("Config", (), {"params": (("lazy_motions", True),)})()
+
+    class Problem:
+        world = World()
+
+    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.lazy_motions
+    Problem.world.config = type("Config", (), {"params": ()})()
+    assert not DecoupledPlanner.from_options(Problem(), 0, {}).opt.lazy_motions

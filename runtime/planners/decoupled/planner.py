@@ -16,7 +16,7 @@ one succeeds; the step's successor mode is then derived at that configuration. A
 whose samples can be reached sends the search back to the previous step's next sample; a plan
 whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
 ``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
-``lazy_motions`` (the default) the motions wait until every step has a configuration
+``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
 (:meth:`DecoupledPlanner.follow_lazily`). When no task plan is left (the exclusions and
 blockers were learnt from a few samples per step, not proofs), task planning starts afresh
 with new samples, until the time limit. A goal with geometric literals is one more step (the
@@ -64,8 +64,10 @@ class DecoupledOptions:
     retreat_steps: int = 4
     retreat_step: float = 0.025
     #: a plan's transition configurations first, its motions once every step has one
-    #: (:meth:`DecoupledPlanner.follow_lazily`; tmpc's; off: a motion at every step)
-    lazy_motions: bool = True
+    #: (:meth:`DecoupledPlanner.follow_lazily`; tmpc's; a manifest's ``[planner]``): Blocks
+    #: World E 10/10 with it; off by default, since Sort Clutter planned 8/10 with it, 10/10
+    #: without (docs/benchmarks.md)
+    lazy_motions: bool = False
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -117,7 +119,8 @@ class DecoupledPlanner:
             min_steps=int(params.get("min_steps", base.min_steps)),
             max_steps=int(params.get("max_steps", base.max_steps)),
             task_planner=str(over.get("task_planner",
-                                      params.get("task_planner", base.task_planner))))
+                                      params.get("task_planner", base.task_planner))),
+            lazy_motions=params.get("lazy_motions", base.lazy_motions) is True)
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
