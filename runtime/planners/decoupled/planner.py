@@ -65,7 +65,7 @@ class DecoupledOptions:
     retreat_step: float = 0.025
     #: a plan's transition configurations first, its motions once every step has one
     #: (:meth:`DecoupledPlanner.follow_lazily`; tmpc's; a manifest's ``[planner]``): Blocks
-    #: World E 10/10 with it; off by default, since Sort Clutter planned 8/10 with it, 10/10
+    #: World E 10/10 with it; off by default, since Sort Clutter planned 7/10 with it, 10/10
     #: without (docs/benchmarks.md)
     lazy_motions: bool = False
     min_steps: int = 0
