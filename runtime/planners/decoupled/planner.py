@@ -17,7 +17,7 @@ whose samples can be reached sends the search back to the previous step's next s
 whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
 ``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
 ``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
-(:meth:`DecoupledPlanner.follow_lazily`). When no task plan is left (the exclusions and
+(:meth:`DecoupledPlanner.follow`). When no task plan is left (the exclusions and
 blockers were learnt from a few samples per step, not proofs), task planning starts afresh
 with new samples, until the time limit. A goal with geometric literals is one more step (the
 goal's projection). The final plan's motions are
@@ -64,7 +64,7 @@ class DecoupledOptions:
     retreat_steps: int = 4
     retreat_step: float = 0.025
     #: a plan's transition configurations first, its motions once every step has one
-    #: (:meth:`DecoupledPlanner.follow_lazily`; tmpc's; a manifest's ``[planner]``): Blocks
+    #: (:meth:`DecoupledPlanner.follow`; tmpc's; a manifest's ``[planner]``): Blocks
     #: World E 10/10 with it; off by default, since Sort Clutter planned 7/10 with it, 10/10
     #: without (docs/benchmarks.md)
     lazy_motions: bool = False
@@ -194,50 +194,15 @@ class DecoupledPlanner:
 
     def follow(self, steps: list, deadline: float) -> list | None:
         """The plan ``steps`` (``(action, transition)``; action None: the goal) made geometric
-        depth first; the path of ``(q, mode, action)`` states, or None. With
-        ``lazy_motions`` the transitions come first (:meth:`follow_lazily`)."""
-        if self.opt.lazy_motions:
-            return self.follow_lazily(steps, deadline)
-        p = self.p
-        budget = [max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))]
-        self.plan_depth = 0
-        # per depth: (q, mode, path so far, samples left to try)
-        stack = [(p.q0.copy(), p.initial, [], None)]
-        while stack and time.perf_counter() < deadline and budget[0] > 0:
-            q, mode, path, todo = stack.pop()
-            depth = len(stack)
-            self.plan_depth = max(self.plan_depth, depth)
-            if depth == len(steps):
-                return path + [(q, mode, None)]
-            action, tr = steps[depth]
-            if todo is None:
-                todo = self.transition_samples(mode, action, q, tr)
-            if not todo:
-                self.counts["backtracks"] += 1
-                continue
-            target, rest = todo[0], todo[1:]
-            stack.append((q, mode, path, rest))
-            motion = self.motion(mode, q, target, deadline)
-            budget[0] -= 1
-            if motion is None:
-                continue
-            tr.count(mode.id)
-            self.counts["transitions"] += 1
-            seg = [(x.copy(), mode, None) for x in motion[:-1]]
-            if action is None:               # the goal's literals hold: done
-                return path + seg + [(target.copy(), mode, None)]
-            succ = p.successor_mode(mode, action, target, self.mode_count)
-            self.mode_count += 1
-            stack.append((target.copy(), succ, path + seg + [(target.copy(), mode, action)],
-                          None))
-        return None
+        depth first; the path of ``(q, mode, action)`` states, or None. Each step's
+        transition configurations are tried in turn, and a motion into each (*eager*: the
+        default, on the plan's motion budget).
 
-    def follow_lazily(self, steps: list, deadline: float) -> list | None:
-        """:meth:`follow` with the motions planned last: depth first over the steps'
+        With ``lazy_motions`` the motions come last: depth first over the steps'
         transition configurations alone (at most the plan's budget of them), and once every
         step has one, the motions between them in order. The first motion that fails sends
         the search back to its step's next configuration (the motions before it kept), and
-        from then on the plan is followed as :meth:`follow` does, a motion with every
+        from then on the plan is followed eagerly, a motion with every
         configuration taken, on the plan's motion budget: a plan whose transitions all hold
         is worth its motions, and with motions last again every failed motion would cost
         the configurations of all the steps after it. Most task plans fail at a transition:
@@ -247,7 +212,7 @@ class DecoupledPlanner:
         p = self.p
         budget = max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))
         targets = budget                     # configurations taken before the first chain
-        eager = False
+        eager = not self.opt.lazy_motions
         self.plan_depth = 0
         # per depth: the configuration, its mode, the action into it (None at the root and
         # the goal), the motion into it (None: not planned yet), the next step's samples left
