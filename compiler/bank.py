@@ -243,8 +243,15 @@ def _without_lapack(jitted: Callable) -> Callable:
 
 
 def _serialize(jax, fn: BankFunction) -> bytes:
+    """``fn`` exported. Its operations' source locations name tmpc's own frame only, by file
+    name: with the full traceback and the path, the bytes depended on where tmpc is installed
+    and on the caller (a script, the CLI, pytest), and so did the artifact."""
     from jax import export
-    return bytes(export.export(jax.jit(fn.python()))(*_shape_structs(jax, fn.spec)).serialize())
+    from jax._src import config
+    with config.include_full_tracebacks_in_locations(False), \
+            config.hlo_source_file_canonicalization_regex(r".*/"):
+        return bytes(export.export(jax.jit(fn.python()))(*_shape_structs(jax, fn.spec))
+                     .serialize())
 
 
 def _shape_structs(jax, spec: Sequence[ArgSpec]):
