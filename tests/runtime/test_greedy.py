@@ -262,9 +262,12 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     """TaskPlans.anchor_rules on Blocks World D: a grasp never reached (a real miss) is false
     until its block moves, in every plan; a placement on `c` whose attempts all hit the
     scene's fixed objects is false wherever `c` stands on its stack again; neither comes
-    before RULE_FAILURES failures, nor from an attempt that hit a block."""
+    before RULE_FAILURES failures, nor from an attempt that hit a block. A placement never
+    held in MISS_FAILURES attempts is unreached however close they came; one on a fixed
+    support whose attempts all hit fixed objects is ruled out for good."""
     from tmpc.runtime.planners.optimal import OptimalOptions
-    from tmpc.runtime.planners.optimal.tasks import RULE_FAILURES, TaskPlans, Transition
+    from tmpc.runtime.planners.optimal.tasks import (MISS_FAILURES, RULE_FAILURES, TaskPlans,
+                                                     Transition)
 
     p = blocks_d
     gp, mode = p.ground, p.initial
@@ -344,6 +347,32 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     g = fresh.task_planner().greedy
     assert g.action_rules == {put.id: [(0, 0)]} and not g.rules
     assert g.violation([pick_d, put]) == 2
+    # ... never held, every attempt within MISS: unreached only after MISS_FAILURES of them
+    near = Transition(held, put, gp.apply(held, put))
+    for _ in range(MISS_FAILURES - 1):
+        near.record_failure(holding, p.q0, False, 0.01)
+    assert not near.unreached
+    fresh = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    fresh.anchor_rules([pick_d], near)
+    assert not fresh.task_planner().greedy.action_rules
+    near.record_failure(holding, p.q0, False, 0.01)
+    assert near.unreached
+    fresh.anchor_rules([pick_d], near)
+    assert fresh.task_planner().greedy.action_rules == {put.id: [(0, 0)]}
+    # a placement on a fixed support whose attempts all hit the table: ruled out for good;
+    # with a block hit as well, until that block moves
+    for other, mask in ((hits["fixed"], []), (both, ["a"])):
+        tr = Transition(held, put, gp.apply(held, put))
+        for _ in range(RULE_FAILURES):
+            tr.record_failure(holding, hits["fixed"], True, 0.0)
+        tr.collided[-1] = (holding, other)
+        counts: dict = {}
+        fresh = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+        fresh.anchor_rules([pick_d], tr)
+        g = fresh.task_planner().greedy
+        assert g.action_rules == {put.id: [(g._object_mask(mask), 0)]}
+        assert counts["fixed_rules"] == 1 and g.violation([pick_d, put]) == 2
+    assert g.satisfies([pick_a, put_a, pick_d, put])
 
 
 def test_a_z3_exception_in_the_sat_planner_leaves_the_greedy_planner_to_answer():
