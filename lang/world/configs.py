@@ -66,6 +66,9 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                            "with this weight (default 2; 0: off; docs/planning.md)"),
     "lazy_motions": (bool, "the decoupled planner plans a task plan's motions once its "
                            "transitions all hold (default false; docs/planning.md)"),
+    "lookahead": (bool, "the decoupled planner tries first the transition configurations "
+                        "after which the plan's next step on the object grasped or put down "
+                        "holds (default false; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

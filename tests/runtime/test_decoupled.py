@@ -241,16 +241,61 @@ def test_lazy_motions_follow_the_whole_chain_and_a_failed_motion_backtracks(tabl
 
 
 def test_lazy_motions_come_from_the_manifest():
-    """A manifest's ``[planner] lazy_motions = true`` (Blocks World E's) reaches the planner;
-    without it the decoupled planner plans a motion at every step."""
+    """A manifest's ``[planner] lazy_motions = true`` (Blocks World E's) and ``lookahead =
+    true`` reach the planner; without them the decoupled planner plans a motion at every step
+    and takes its configurations nearest first."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
 
     class World:
-        config = type("Config", (), {"params": (("lazy_motions", True),)})()
+        config = type("Config", (), {"params": (("lazy_motions", True),
+                                                ("lookahead", True))})()
 
     class Problem:
         world = World()
 
-    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.lazy_motions
+    opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
+    assert opt.lazy_motions and opt.lookahead
     Problem.world.config = type("Config", (), {"params": ()})()
-    assert not DecoupledPlanner.from_options(Problem(), 0, {}).opt.lazy_motions
+    opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
+    assert not opt.lazy_motions and not opt.lookahead
+
+
+def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(tabletop_run):
+    """``lookahead``: a grasp's configurations are reordered by the placement that follows
+    (projected in the mode after each), those after which it holds collision-free first;
+    none is dropped, and the plan validates."""
+    import math
+
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    from tmpc.runtime.problem import PROJECTION_BATCH
+    problem, _ = tabletop_run
+    planner = DecoupledPlanner(problem, seed=0, options=DecoupledOptions(lookahead=True))
+    assert planner.tasks.next_plan(math.inf)
+    steps = [(tr.action, tr) for tr in planner.tasks.plan_transitions]
+    grasp, tr = steps[0]
+    todo = planner.transition_samples(problem.initial, grasp, problem.q0, tr,
+                                      keep=PROJECTION_BATCH)
+    assert len(todo) >= 3
+    asked, real = [], problem.project_raw
+    chosen = todo[-1]                           # only the last one can be followed
+
+    def project(mode, action, starts, iterations=None):
+        asked.append(action)
+        Q, holds, d = real(mode, action, starts, iterations)
+        return Q, holds & bool(np.allclose(starts[0], chosen)), d
+    problem.project_raw = project
+    try:
+        order = planner.looking_ahead(steps, 0, problem.initial, todo)
+    finally:
+        del problem.project_raw
+    assert asked == [steps[1][0]] * len(todo)   # the placement that follows, once each
+    assert np.allclose(order[0], chosen)
+    assert [list(x) for x in order[1:]] == [list(x) for x in todo[:-1]]   # nearest first
+    # the real projections: a reordering, nothing dropped
+    order = planner.looking_ahead(steps, 0, problem.initial, todo)
+    assert sorted(map(tuple, order)) == sorted(map(tuple, todo))
+    result = DecoupledPlanner(problem, seed=0,
+                              options=DecoupledOptions(lookahead=True)).solve(60.0)
+    assert result.status == "solved" and result.stats["lookahead_projections"] > 0
+    _, report = _validate(problem, result, "decoupled")
+    assert report.valid, report.text()

@@ -68,6 +68,10 @@ class DecoupledOptions:
     #: World E 10/10 with it; off by default, since Sort Clutter planned 7/10 with it, 10/10
     #: without (docs/benchmarks.md)
     lazy_motions: bool = False
+    #: a step that grasps or releases an object takes, of its transition configurations,
+    #: first those from which the plan's next step on that object holds (:meth:`DecoupledPlanner.
+    #: looking_ahead`; tmpc's; a manifest's ``[planner]``)
+    lookahead: bool = False
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -85,6 +89,8 @@ class DecoupledPlanner:
         self.rng = np.random.default_rng(seed)
         # the shortcuts' own stream: the transitions drawn do not depend on --simplify
         self.shortcut_rng = np.random.default_rng([seed, 1])
+        # the lookahead's: the transitions drawn do not depend on it either
+        self.ahead_rng = np.random.default_rng([seed, 2])
         self.counts = {"task_plans": 0, "evidence": 0, "transition_samples": 0,
                        "transition_failures": 0, "transitions": 0, "motions": 0,
                        "motion_failures": 0, "backtracks": 0, "task_restarts": 0, "deepest_step": 0}
@@ -120,7 +126,8 @@ class DecoupledPlanner:
             max_steps=int(params.get("max_steps", base.max_steps)),
             task_planner=str(over.get("task_planner",
                                       params.get("task_planner", base.task_planner))),
-            lazy_motions=params.get("lazy_motions", base.lazy_motions) is True)
+            lazy_motions=params.get("lazy_motions", base.lazy_motions) is True,
+            lookahead=params.get("lookahead", base.lookahead) is True)
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
@@ -231,7 +238,7 @@ class DecoupledPlanner:
             q, mode, _, _, todo = stack[-1]
             action, tr = steps[depth]
             if todo is None:
-                todo = stack[-1][4] = self.transition_samples(mode, action, q, tr)
+                todo = stack[-1][4] = self.step_samples(steps, depth, mode, q)
             if not todo:
                 self.counts["backtracks"] += 1
                 stack.pop()
@@ -301,11 +308,70 @@ class DecoupledPlanner:
         self.counts["shortcut_seconds"] = round(time.perf_counter() - t, 4)
         return out
 
-    def transition_samples(self, mode: Mode, action, q: np.ndarray, tr) -> list[np.ndarray]:
-        """Up to ``samples`` collision-free configurations where ``action``'s geometric
-        precondition (the goal's for None) holds in ``mode``, the nearest to ``q`` first:
-        projected from ``q`` and from uniform starts. An action without geometry happens at
-        ``q``."""
+    def step_samples(self, steps: list, i: int, mode: Mode, q: np.ndarray) -> list[np.ndarray]:
+        """Step ``i``'s transition configurations from ``q`` in ``mode``
+        (:meth:`transition_samples`), those from which the plan's next step on the object it
+        grasps or releases holds first, with ``lookahead`` (:meth:`looking_ahead`)."""
+        action, tr = steps[i]
+        if not self.opt.lookahead or action is None:
+            return self.transition_samples(mode, action, q, tr)
+        todo = self.transition_samples(mode, action, q, tr, keep=PROJECTION_BATCH)
+        return self.looking_ahead(steps, i, mode, todo)[:self.opt.samples]
+
+    def looking_ahead(self, steps: list, i: int, mode: Mode, todo: list) -> list:
+        """``todo`` (step ``i``'s configurations in ``mode``) reordered by the plan's next step
+        ``j`` on the object step ``i`` grasps or releases: first the configurations after
+        which ``j``'s precondition holds collision-free (projected from each, one batch),
+        then those where it holds only in collision, then the rest (each group nearest
+        first). ``j`` is looked at when it comes next, or when step ``i`` puts the object
+        down, the hands are empty after it and ``j`` only grasps it (a block put on the
+        table for the other arm to take: the steps between cannot move it). A
+        configuration is never dropped, only tried later."""
+        p = self.p
+        if len(todo) < 2:
+            return todo
+        action = steps[i][0]
+        first = p.successor_mode(mode, action, todo[0], -1)
+        before, after = set(mode.held or {}), set(first.held or {})
+        moved = {x.lower() for x in before ^ after}
+        if not moved:
+            return todo
+        j = next((k for k in range(i + 1, len(steps)) if steps[k][0] is not None and any(
+            x.lower() in moved for lit in steps[k][0].pre_geometric if lit.positive
+            for x in lit.args)), None)
+        if j is None:
+            return todo
+        later = steps[j][0]
+        if j > i + 1:
+            movable = self.tasks.task_planner().movable
+            named = {x.lower() for lit in later.pre_geometric if lit.positive
+                     for x in lit.args if x.lower() in movable}
+            if after or not named <= moved or not (before - after):
+                return todo
+        if not p.has_geometry(later):
+            return todo
+        score = []
+        for c in todo:
+            succ = p.successor_mode(mode, action, c, -1)
+            near = c + self.ahead_rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(c))) \
+                * (p.upper - p.lower)
+            starts = np.vstack([c[None], p.wrap(near),
+                                p.uniform(self.ahead_rng, PROJECTION_BATCH // 2)])
+            Qp, holds, _ = p.project_raw(succ, later, starts,
+                                         iterations=self.opt.projection_iterations)
+            self.counts["lookahead_projections"] = \
+                self.counts.get("lookahead_projections", 0) + len(starts)
+            good = holds.any() and bool(p.valid_batch(succ, Qp[holds]).any())
+            score.append(0 if good else 1 if holds.any() else 2)
+        order = np.argsort(score, kind="stable")
+        return [todo[k] for k in order]
+
+    def transition_samples(self, mode: Mode, action, q: np.ndarray, tr,
+                           keep: int | None = None) -> list[np.ndarray]:
+        """Up to ``samples`` (or ``keep``) collision-free configurations where ``action``'s
+        geometric precondition (the goal's for None) holds in ``mode``, the nearest to ``q``
+        first: projected from ``q`` and from uniform starts. An action without geometry
+        happens at ``q``."""
         p = self.p
         if action is not None and not p.has_geometry(action):
             return [q.copy()]
@@ -338,7 +404,7 @@ class DecoupledPlanner:
                 break
         if out:                              # the nearest first: shorter motions
             out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
-        return out[:self.opt.samples]
+        return out[:keep or self.opt.samples]
 
     def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray,
                deadline: float) -> np.ndarray | None:
