@@ -17,7 +17,9 @@ whose samples can be reached sends the search back to the previous step's next s
 whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
 ``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
 ``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
-(:meth:`DecoupledPlanner.follow`). When no task plan is left (the exclusions and
+(:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
+object tries first the configurations after which the plan's next step on that object holds
+(:meth:`DecoupledPlanner.looking_ahead`). When no task plan is left (the exclusions and
 blockers were learnt from a few samples per step, not proofs), task planning starts afresh
 with new samples, until the time limit. A goal with geometric literals is one more step (the
 goal's projection). The final plan's motions are
