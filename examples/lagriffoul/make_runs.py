@@ -30,7 +30,7 @@ PLANNER = {
 }
 # Blocks F-J hand more blocks from one arm to the other through the table: a block is put down
 # first where the plan's next grasp of it holds (lookahead: Blocks F 2/10 with it, 0 before;
-# Blocks E 9/10 with it, median 162.5 s, against 10/10 and 126.0 s without)
+# Blocks E 9/10 with it, median 162.5 s, against 10/10 and 126.0 s without, a session before)
 PLANNER.update({f"blocks-{x}": PLANNER["blocks-E"] + ['lookahead = true'] for x in "FGHIJ"})
 
 def instances() -> dict[str, tuple]:
