@@ -354,12 +354,9 @@ class DecoupledPlanner:
         if not p.has_geometry(later):
             return todo
         score = []
-        for c in todo:
-            succ = p.successor_mode(mode, action, c, -1)
-            near = c + self.ahead_rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(c))) \
-                * (p.upper - p.lower)
-            starts = np.vstack([c[None], p.wrap(near),
-                                p.uniform(self.ahead_rng, PROJECTION_BATCH // 2)])
+        for k, c in enumerate(todo):
+            succ = first if k == 0 else p.successor_mode(mode, action, c, -1)
+            starts = self.starts_around(c, self.ahead_rng)
             Qp, holds, _ = p.project_raw(succ, later, starts,
                                          iterations=self.opt.projection_iterations)
             self.counts["lookahead_projections"] = \
@@ -368,6 +365,13 @@ class DecoupledPlanner:
             score.append(0 if good else 1 if holds.any() else 2)
         order = np.argsort(score, kind="stable")
         return [todo[k] for k in order]
+
+    def starts_around(self, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """One batch of projection starts: ``q``, 7 around it (a tenth of each joint's range)
+        and 8 uniform ones."""
+        p = self.p
+        near = q + rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) * (p.upper - p.lower)
+        return np.vstack([q[None], p.wrap(near), p.uniform(rng, PROJECTION_BATCH // 2)])
 
     def transition_samples(self, mode: Mode, action, q: np.ndarray, tr,
                            keep: int | None = None) -> list[np.ndarray]:
@@ -380,13 +384,8 @@ class DecoupledPlanner:
             return [q.copy()]
         out = []
         for r in range(self.opt.sample_rounds):
-            if r == 0:
-                # the current configuration, 7 starts around it (a tenth of each joint's
-                # range) and 8 uniform ones: nearby transitions first, far ones when those fail
-                near = q + self.rng.normal(0.0, 0.1, (PROJECTION_BATCH // 2 - 1, len(q))) \
-                    * (p.upper - p.lower)
-                starts = np.vstack([q[None], p.wrap(near),
-                                    p.uniform(self.rng, PROJECTION_BATCH // 2)])
+            if r == 0:                       # nearby transitions first, far ones if those fail
+                starts = self.starts_around(q, self.rng)
             else:                            # none valid: wider, then uniform starts
                 near = q + self.rng.normal(0.0, 0.3, (PROJECTION_BATCH // 2, len(q))) \
                     * (p.upper - p.lower)
