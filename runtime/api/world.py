@@ -120,17 +120,18 @@ class World:
         return [sampled_state(compiled, st, q) for q in got.found]
 
     # ---- planning -----------------------------------------------------------------------------
-    def plan(self, planner: str = "optimal", seed: int = 0, time_limit: float | None = None,
+    def plan(self, planner: str | None = None, seed: int = 0, time_limit: float | None = None,
              start: Start = None, first_solution: bool | None = None,
              options: dict[str, Any] | None = None,
              progress: Callable[[Any], None] | None = None,
              simplify: str | None = None) -> Plan:
-        """Plan from ``start`` (None: the scene's start) with the registered ``planner``; a
-        :class:`Plan` whether or not one was found. ``time_limit``: the seconds to plan (and,
-        for an anytime planner, to improve its plan); None: up to 120 s, stopping at the first
-        plan. ``first_solution``: an anytime planner stops at its first plan (default: when no
-        ``time_limit`` is given); ``options``: the planner's other options (``tmpc run``'s
-        flags, e.g. ``{"batch_size": 200}``). The first call sets up the planning problem;
+        """Plan from ``start`` (None: the scene's start) with the registered ``planner`` (None:
+        the manifest's ``[planner] name``, else ``optimal``, as ``tmpc run``); a :class:`Plan`
+        whether or not one was found. ``time_limit``: the seconds to plan (and, for an
+        anytime planner, to improve its plan); None: the manifest's ``time_limit``, else
+        120 s, stopping at the first plan. ``first_solution``: an anytime planner stops at
+        its first plan (default: when no ``time_limit`` is given); ``options``: the planner's
+        other options (``tmpc run``'s flags, e.g. ``{"batch_size": 200}``). The first call sets up the planning problem;
         later calls reuse it (no load, no compile) and time their set-up in
         :attr:`last_overhead`. ``simplify="ompl"``: OMPL's path simplifier on the final plan's
         motions (``tmpc run --simplify ompl``; default ``"tmpc"``: the planner's own)."""
@@ -142,8 +143,12 @@ class World:
             first_solution = True
         if first_solution is not None:
             overrides["first_solution"] = first_solution
+        config = self.world.config
+        if planner is None:
+            planner = config.planner if config is not None and config.planner else "optimal"
         if time_limit is None:
-            time_limit = 120.0
+            time_limit = config.time_limit if config is not None and config.time_limit \
+                else 120.0
         if self.problem is None and start is None:
             problem, result, setup = plan_problem(self.world, planner, seed, time_limit,
                                                   overrides, progress)
