@@ -183,6 +183,8 @@ class GreedyTaskPlanner:
         #: out where all the atoms hold and none of the objects has moved
         self.action_rules: dict[int, list[tuple[int, int]]] = {}
         self.expansions = 0
+        #: per state, :meth:`_goal_possible`
+        self._goal_cache: dict[int, bool] = {}
         #: after the greedy search, weighted A* (depth + ``weight`` h_FF) for a shorter plan,
         #: within ``weighted_budget`` times the greedy search's expansions (at least
         #: ``weighted_floor``); None: the greedy plan
@@ -401,7 +403,8 @@ class GreedyTaskPlanner:
             seen.add(key)
             values = self._known(known, moved, state)
             node = (state, trie, known, moved, parent, aid, depth, values)
-            if depth >= min_steps and _holds(p.goal.formula, state, values):
+            if depth >= min_steps and self._goal_possible(state) and \
+                    (not values or _holds(p.goal.formula, state, values)):
                 nodes.append(node)
                 return True
             h = self.h.h(state)
@@ -443,6 +446,15 @@ class GreedyTaskPlanner:
                 if push(nxt, child, k, moved | self.moves[a.id], i, a.id, depth + 1):
                     return result(SOLVED, self._path(nodes))
         return result(EXHAUSTED)
+
+    def _goal_possible(self, state: int) -> bool:
+        """Does the goal hold in ``state`` with every geometric literal possibly true? Known
+        values only make literal uses false, so where it does not, it does not either (cached
+        per state: Blocks World F's disjunctive goal took a fifth of the search's time)."""
+        known = self._goal_cache.get(state)
+        if known is None:
+            known = self._goal_cache[state] = _holds(self.problem.goal.formula, state, {})
+        return known
 
     def _candidates(self, state: int) -> list[tuple]:
         """The tests of the actions whose indexing atom holds in ``state`` (and those
