@@ -32,13 +32,14 @@ def tmp_cwd(tmp_path, monkeypatch):
 @pytest.fixture(scope="session")
 def aot_folder():
     """The user cache's folder of kernels built ahead of time (tmpc.compiler.aot), the collision
-    pass built in it (as any run does). A test that gives a child process a cache of its own,
-    to compile an artifact cold, links its ``aot`` folder here: the pass's numba build (tens of
-    seconds, tested in tests/runtime/test_aot.py) is not what it checks."""
+    pass built in it (as any run does; where the build fails, its recorded failure, and runs
+    use numba's JIT as they would with the user cache). A test that gives a process a cache of
+    its own, to compile an artifact cold, links its ``aot`` folder here: the pass's numba build
+    (tens of seconds, tested in tests/runtime/test_aot.py) is not what it checks."""
     from tmpc.compiler import aot
     from tmpc.runtime.collision.kernel import PASS_KERNEL
-    module, why = aot.obtain(PASS_KERNEL)
-    assert why is None and module is not None, why
+    aot.obtain(PASS_KERNEL)
+    PASS_KERNEL.path().parent.mkdir(parents=True, exist_ok=True)      # TMPC_AOT=0: none built
     return PASS_KERNEL.path().parent
 
 
