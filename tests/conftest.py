@@ -30,6 +30,20 @@ def tmp_cwd(tmp_path, monkeypatch):
 
 
 @pytest.fixture(scope="session")
+def aot_folder():
+    """The user cache's folder of kernels built ahead of time (tmpc.compiler.aot), the collision
+    pass built in it (as any run does; where the build fails, its recorded failure, and runs
+    use numba's JIT as they would with the user cache). A test that gives a process a cache of
+    its own, to compile an artifact cold, links its ``aot`` folder here: the pass's numba build
+    (tens of seconds, tested in tests/runtime/test_aot.py) is not what it checks."""
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision.kernel import PASS_KERNEL
+    aot.obtain(PASS_KERNEL)
+    PASS_KERNEL.path().parent.mkdir(parents=True, exist_ok=True)      # TMPC_AOT=0: none built
+    return PASS_KERNEL.path().parent
+
+
+@pytest.fixture(scope="session")
 def tabletop_world():
     """examples/tabletop/tabletop.toml opened with its program (read only)."""
     from tmpc.compiler.artifact import open_world

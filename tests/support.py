@@ -97,6 +97,53 @@ def run_tmpc(*args, cwd=None):
                           capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
+def tmpc_here(*args, cwd=None, env=None, stdin: str | None = None):
+    """``tmpc ARGS`` in this process (:func:`tmpc.runtime.cli.main.main`), answered as
+    :func:`run_tmpc` answers: a CompletedProcess with the exit code (argparse's usage exit
+    included), stdout and stderr (pipes: not terminals). The command's JAX import, artifact
+    loads and kernel compiles are this process's, shared with the tests run in it; what needs
+    a process of its own (signals, what a fresh interpreter imports, the interpreter's exit)
+    uses :func:`run_tmpc`. ``env`` replaces the environment for the call, ``cwd`` the working
+    directory, ``stdin`` is the text on standard input."""
+    import contextlib
+    import io
+    import os
+    import subprocess
+    import sys
+
+    from tmpc.runtime.cli.main import main
+
+    def pipe(text: str = "") -> io.TextIOWrapper:
+        return io.TextIOWrapper(io.BytesIO(text.encode()), encoding="utf-8", newline=None)
+
+    argv = [str(a) for a in args]
+    out, err = pipe(), pipe()
+    here, environ, stdin_was = os.getcwd(), dict(os.environ), sys.stdin
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        if env is not None:
+            os.environ.clear()
+            os.environ.update(env)
+        sys.stdin = pipe(stdin or "")
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(argv)
+            except SystemExit as exc:          # argparse's usage errors and --help
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        sys.stdin = stdin_was
+        os.chdir(here)
+        if env is not None:
+            os.environ.clear()
+            os.environ.update(environ)
+    texts = []
+    for stream in (out, err):
+        stream.flush()
+        texts.append(stream.buffer.getvalue().decode("utf-8", errors="replace"))
+    return subprocess.CompletedProcess(["tmpc", *argv], code, *texts)
+
+
 def validate_result(problem, result, path, planner: str, seed: int = 0):
     """(plan document, validator report) of a planner's result written to ``path``."""
     from tmpc.runtime.plans import plan_document, write_json_atomic

@@ -11,12 +11,18 @@ import zipfile
 import numpy as np
 import pytest
 
-from tests.support import EXAMPLES
+from tests.support import EXAMPLES, tmpc_here
 from tmpc.compiler.compile import compile_world
 from tmpc.runtime.collision import collision_world
 
 
 def cli(*args, cwd=None):
+    """`tmpc ARGS` in this process (exit code, stdout, stderr as a process gives them)."""
+    return tmpc_here(*args, cwd=cwd)
+
+
+def cli_process(*args, cwd=None):
+    """`tmpc ARGS` in a fresh interpreter."""
     return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", *args], capture_output=True,
                           text=True, cwd=cwd)
 
@@ -34,12 +40,13 @@ def artifact(tmp_path_factory):
 
 
 def test_artifact_runs_without_its_sources(artifact):
-    r = cli("eval", str(artifact), "--predicate", "over", "panda_hand_tcp", "bench", "--json",
-            "--collisions")
+    # a fresh interpreter: nothing of the sources (deleted) in memory either
+    r = cli_process("eval", str(artifact), "--predicate", "over", "panda_hand_tcp", "bench",
+                    "--json", "--collisions")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert out["value"] is True and out["valid"] is True
-    r = cli("sample", str(artifact), "--predicate", "reach", "panda_hand_tcp", "red_cube", "-n", "1")
+    r = cli_process("sample", str(artifact), "--predicate", "reach", "panda_hand_tcp", "red_cube", "-n", "1")
     assert r.returncode == 0, r.stderr
 
 

@@ -1,4 +1,5 @@
-"""`tmpc eval` end to end on the bundled examples."""
+"""`tmpc eval` end to end on the bundled examples: in this process (:func:`tests.support.tmpc_here`),
+and one question in a fresh interpreter (`test_predicate_distance_and_gradient`)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,17 @@ import sys
 
 import pytest
 
-from tests.support import EXAMPLES
+from tests.support import EXAMPLES, tmpc_here
 
 TABLETOP = str(EXAMPLES / "tabletop" / "tabletop.toml")
 CLUTTER = str(EXAMPLES / "clutter" / "clutter.toml")
 
 
 def run(*args, stdin=None):
+    return tmpc_here("eval", *args, stdin=stdin)
+
+
+def run_process(*args, stdin=None):
     return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "eval", *args], input=stdin,
                           capture_output=True, text=True)
 
@@ -40,7 +45,7 @@ def test_predicate_truth_changes_with_the_state(tmp_path):
 
 
 def test_predicate_distance_and_gradient():
-    r = run(TABLETOP, "--predicate", "reach", "panda_hand_tcp", "red_cube", "--json")
+    r = run_process(TABLETOP, "--predicate", "reach", "panda_hand_tcp", "red_cube", "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert out["value"] is False and out["distance"] > 0.1

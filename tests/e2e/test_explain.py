@@ -1,6 +1,10 @@
 """Why no plan (issue S): five problems made infeasible on purpose, each explanation names its
 culprit predicate (or colliding pair) and object. Each is a bundled example with one thing
-moved or added, planned for a few seconds; the report is what `tmpc run --explain` writes."""
+moved or added, planned for a few seconds; the report is what `tmpc run --explain` writes.
+
+The infeasible cases run the command in this process (:func:`tmpc.runtime.cli.main.main`: the
+same exit code, stderr and report); the solved one runs it in a fresh interpreter, as a user
+does."""
 
 from __future__ import annotations
 
@@ -75,14 +79,16 @@ def _names(culprit: dict, want: dict) -> bool:
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
-def test_an_infeasible_problem_is_explained(tmp_path, case):
+def test_an_infeasible_problem_is_explained(tmp_path, case, capsys):
+    from tmpc.runtime.cli.main import main
     example, config, edit, want = CASES[case]
     d = _copy(tmp_path, example)
     _edit_scene(d, edit)
     out = tmp_path / "why.json"
-    run = run_tmpc("run", d / config, "-q", "--time-limit", "4", "--explain", out)
-    assert run.returncode == 3, run.stderr
-    assert "why no plan:" in run.stderr
+    code = main(["run", str(d / config), "-q", "--time-limit", "4", "--explain", str(out)])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert "why no plan:" in err
     report = json.loads(out.read_text())
     assert report["status"] == "partial"
     top = report["culprits"][:3]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, EXAMPLES, run_tmpc, validate_result
+from tests.support import CLUTTER, EXAMPLES, run_tmpc, tmpc_here, validate_result
 from tmpc.lang.diagnostics import TmpcError
 from tmpc.lang.world.generate import clutter_problem, clutter_scene
 
@@ -87,7 +87,9 @@ def test_time_limit_gives_partial_progress(clutter_problem_1):
 
 # ---- the command line and its errors ------------------------------------------------------------
 
-_tmpc = run_tmpc
+#: `tmpc ARGS` in this process (the exit code, stdout and stderr a process gives); the first run
+#: of test_cli_run_writes_plan_and_legacy_arrays is a fresh interpreter's (run_tmpc)
+_tmpc = tmpc_here
 
 
 def _world_dir(tmp_path, scene: dict, problem: str) -> Path:
@@ -159,7 +161,7 @@ def test_make_planner_rejects_bad_bias(clutter_problem_1):
 
 def test_cli_run_writes_plan_and_legacy_arrays(tmp_path):
     out, legacy = tmp_path / "plan.json", tmp_path / "planet.json"
-    r = _tmpc("run", CLUTTER, "--seed", "0", "-o", out, "-q")
+    r = run_tmpc("run", CLUTTER, "--seed", "0", "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
     assert doc["format"] == "tmpc-plan/1" and doc["status"] == "solved"

@@ -37,13 +37,20 @@ def _forbid_lowering(monkeypatch):
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    """A cache of tmpc's own parts that has seen nothing, sharing XLA's executables with the
-    default cache (what is compiled there is JAX's business, not the artifact's)."""
+def cache_dir(tmp_path_factory, aot_folder):
+    """A cache of tmpc's own parts that has seen nothing (no run artifact, no robot), sharing
+    XLA's executables with the default cache (what is compiled there is JAX's business, not the
+    artifact's), its exported kernels (the export cache, keyed by sources, kernel, tmpc's
+    code and JAX: a compile here still builds and writes the run's artifact; exporting every
+    kernel afresh is test_the_same_sources_compile_to_the_same_bytes's, with a cache of its
+    own) and the collision pass built ahead of time (machine code, never in an artifact; else
+    a run here starts its numba build in a child process nobody waits for)."""
     from tmpc.compiler.cache import cache_root
     d = tmp_path_factory.mktemp("tmpc-cache")
-    (cache_root() / "jax").mkdir(parents=True, exist_ok=True)
-    (d / "jax").symlink_to(cache_root() / "jax")
+    for part in ("jax", "exports"):
+        (cache_root() / part).mkdir(parents=True, exist_ok=True)
+        (d / part).symlink_to(cache_root() / part)
+    (d / "aot").symlink_to(aot_folder)
     return d
 
 
@@ -164,12 +171,17 @@ def test_kernels_of_another_jax_are_traced_with_a_warning(artifact, tmp_path):
     z.close()
 
 
-def test_the_same_sources_compile_to_the_same_bytes(artifact, tmp_path, monkeypatch):
+def test_the_same_sources_compile_to_the_same_bytes(artifact, tmp_path, monkeypatch,
+                                                   aot_folder):
     """A compile with a cache of its own (nothing shared but the sources, read from another
     directory) gives the module's artifact byte for byte: no timestamps, no paths, a fixed
-    member order, deterministic exports."""
+    member order, deterministic exports. (Its cache links the user cache's aot/ folder: the
+    collision pass's machine code, never part of an artifact; without it the compile starts a
+    numba build of the pass in a child process that outlives the test.)"""
     from tmpc.compiler.artifact import open_world
     from tmpc.compiler.export import build_artifact
+    (tmp_path / "cache").mkdir()
+    (tmp_path / "cache" / "aot").symlink_to(aot_folder)
     monkeypatch.setenv("TMPC_CACHE_DIR", str(tmp_path / "cache"))
     out = tmp_path / "t.tmpa"
     build_artifact(open_world(TABLETOP / "tabletop.toml"), out)

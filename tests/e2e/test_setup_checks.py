@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from tests.support import EXAMPLES, run_tmpc
+from tests.support import EXAMPLES, run_tmpc, tmpc_here
 from tmpc.runtime.setup_checks import SETUP_CODES
 
 
@@ -105,14 +105,16 @@ def _located(out: str, code: str):
 @pytest.mark.parametrize("code", sorted(CASES))
 def test_check_reports_what_run_rejects_at_the_same_place(tmp_path, code):
     d = _broken(tmp_path, code)
-    check = run_tmpc("check", d / "tower.toml")
+    # both commands in this process (tmpc_here: exit code and output as a process's); the
+    # unbroken tower's check below runs in a fresh interpreter
+    check = tmpc_here("check", d / "tower.toml")
     assert check.returncode == 1, check.stderr
     assert f"error[{code}]" in check.stderr + check.stdout, check.stderr
     assert check.stderr.count("error[") == 1, check.stderr      # that error alone
     where = CASES[code][1]
     if where is not None:
         assert _located(check.stderr + check.stdout, code) == where, check.stderr
-    run = run_tmpc("run", d / "tower.toml", "-q", "--time-limit", "5")
+    run = tmpc_here("run", d / "tower.toml", "-q", "--time-limit", "5")
     assert run.returncode == 1, run.stderr
     assert f"error[{code}]" in run.stderr, run.stderr
     if where is not None:

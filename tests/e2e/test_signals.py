@@ -18,8 +18,15 @@ import pytest
 from tests.support import EXAMPLES
 
 
-def _start(cfg, tmp_path, *extra):
-    env = {**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")}
+def _start(cfg, tmp_path, aot_folder, *extra):
+    """``tmpc run CFG`` with a cache of its own (its artifact compiles cold), but for the
+    kernels built ahead of time (the collision pass's numba build comes before the compile;
+    a signal there is not what these tests send)."""
+    cache = tmp_path / "cache"
+    cache.mkdir(exist_ok=True)
+    if not (cache / "aot").exists():
+        (cache / "aot").symlink_to(aot_folder)
+    env = {**os.environ, "TMPC_CACHE_DIR": str(cache)}
     return subprocess.Popen([sys.executable, "-m", "tmpc.runtime.cli", "run", str(cfg), "-o",
                              str(tmp_path / "plan.json"), *extra],
                             stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env)
@@ -30,10 +37,10 @@ def _leftovers(root) -> list[str]:
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_a_signal_during_setup_stops_at_once(tmp_path, sig):
+def test_a_signal_during_setup_stops_at_once(tmp_path, sig, aot_folder):
     src = tmp_path / "tabletop"
     shutil.copytree(EXAMPLES / "tabletop", src)
-    p = _start(src / "tabletop.toml", tmp_path)
+    p = _start(src / "tabletop.toml", tmp_path, aot_folder)
     line = p.stderr.readline()            # "compiling the problem into the artifact cache..."
     assert "compiling" in line, line
     time.sleep(0.5)
@@ -48,17 +55,17 @@ def test_a_signal_during_setup_stops_at_once(tmp_path, sig):
 
 
 @pytest.mark.slow
-def test_a_signal_during_planning_gives_the_best_progress(tmp_path):
+def test_a_signal_during_planning_gives_the_best_progress(tmp_path, aot_folder):
     src = tmp_path / "tabletop"
     shutil.copytree(EXAMPLES / "tabletop", src)
     scene = json.loads((src / "scene.json").read_text())
     tray = next(o for o in scene["objects"] if o["name"] == "tray")
     tray["pose"]["translation"] = [9.0, 0.0, 0.4]        # out of reach: planning never ends
     (src / "scene.json").write_text(json.dumps(scene))
-    first = _start(src / "tabletop.toml", tmp_path, "--time-limit", "2")
+    first = _start(src / "tabletop.toml", tmp_path, aot_folder, "--time-limit", "2")
     first.communicate(timeout=600)                        # compiled, then partial after 2 s
     assert first.returncode == 3
-    p = _start(src / "tabletop.toml", tmp_path, "--time-limit", "120")
+    p = _start(src / "tabletop.toml", tmp_path, aot_folder, "--time-limit", "120")
     time.sleep(8)                                         # warm setup is ~2 s
     p.send_signal(signal.SIGINT)
     err = p.communicate(timeout=60)[1]

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.support import DOCS, EXAMPLES, FIXTURES, LEGACY, pos_of, raises, where
+from tests.support import DOCS, EXAMPLES, FIXTURES, LEGACY, pos_of, raises, tmpc_here, where
 from tmpc.lang.diagnostics import SceneError
 from tmpc.lang.source import SourceFile
 from tmpc.lang.world import LoadReport, load_allowed_pairs, load_scene
@@ -295,13 +295,10 @@ def test_native_manifest_sets_the_collision_tolerance(tmp_path):
         run.write_text(base + line + "\n")
         check_error(code, run, needle)
     run.write_text(base + 'output = "nowhere/plan.json"\n')
-    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(run)],
-                       capture_output=True, text=True)
+    r = tmpc_here("check", run)
     line, col = pos_of(run.read_text(), '"nowhere/plan.json"')
     assert f"{run}:{line}:{col}: warning[W507]" in r.stderr, r.stderr
-    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(run)],
-                       capture_output=True, text=True,
-                       env={**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")})
+    r = tmpc_here("run", run, env={**os.environ, "TMPC_CACHE_DIR": str(tmp_path / "cache")})
     assert r.returncode == 1 and "error[E828]: cannot write" in r.stderr, r.stderr
     assert not (tmp_path / "cache" / "runs").exists()          # refused before compiling
 
@@ -310,29 +307,23 @@ def test_check_of_a_run_config_checks_what_it_names(tmp_path):
     """`tmpc check CONFIG` checks the domain and problem it names and that the Lua file defines
     every geometric predicate without inline semantics (E707), as a run would."""
     import shutil
-    import subprocess
-    import sys
     ex = tmp_path / "ps"
     shutil.copytree(EXAMPLES / "planet-sort", ex)
-    ok = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
-                        capture_output=True, text=True)
+    ok = tmpc_here("check", ex / "sort.toml")
     assert ok.returncode == 0 and "problem" in ok.stderr, ok.stderr
     lua = ex / "sort.lua"
     lua.write_text(lua.read_text().replace("function at(", "function at_renamed("))
-    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
-                         capture_output=True, text=True)
+    bad = tmpc_here("check", ex / "sort.toml")
     assert bad.returncode == 1 and "E707" in bad.stderr and "domain.pddl:" in bad.stderr, bad.stderr
     # the wrong number of parameters: E708 from `check`, as from a run (it was run-only)
     lua.write_text(lua.read_text().replace("function at_renamed(m, x)", "function at(m, x, y)"))
-    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
-                         capture_output=True, text=True)
+    bad = tmpc_here("check", ex / "sort.toml")
     assert bad.returncode == 1 and "error[E708]: Lua function `at` takes 3 parameter(s) but " \
         "predicate `at` has 2" in bad.stderr, bad.stderr
     lua.write_text(lua.read_text().replace("function at(m, x, y)", "function at(m, x)"))
     prob = ex / "problem.pddl"
     prob.write_text(prob.read_text().replace("(:goal (and", "(:goal (and (no-such-pred a)"))
-    bad = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "check", str(ex / "sort.toml")],
-                         capture_output=True, text=True)
+    bad = tmpc_here("check", ex / "sort.toml")
     assert bad.returncode == 1 and "problem.pddl:" in bad.stderr, bad.stderr
 
 
@@ -419,8 +410,7 @@ def test_native_manifest_names_its_planner(tmp_path):
     run.write_text(base + "\n[planner]\nname = 3\n")
     check_error("E506", run, "3")
     run.write_text(base + '\n[planner]\nname = "optimel"\n')
-    r = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run", str(run),
-                        "--time-limit", "1"], capture_output=True, text=True, timeout=300)
+    r = tmpc_here("run", run, "--time-limit", "1")
     assert r.returncode != 0 and "E826" in r.stdout + r.stderr and "Traceback" not in r.stderr
 
 

@@ -14,7 +14,7 @@ import pytest
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from tests.support import CLUTTER, run_tmpc, validate_result
+from tests.support import CLUTTER, tmpc_here, validate_result
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalPlanner, Transition, lazy_astar
 from tmpc.runtime.planners.retreat import hand_frames
 
@@ -424,13 +424,13 @@ def test_transition_caps_follow_tmit_star(clutter_problem_1):
 
 def test_cli_optimal_writes_a_valid_plan_with_its_cost_trace(tmp_path):
     out = tmp_path / "plan.json"
-    r = run_tmpc("run", CLUTTER, "--planner", "optimal", "--first-solution", "-o", out, "-q")
+    r = tmpc_here("run", CLUTTER, "--planner", "optimal", "--first-solution", "-o", out, "-q")
     assert r.returncode == 0, r.stderr
     doc = json.loads(out.read_text())
     assert doc["planner"] == "optimal" and doc["status"] == "solved"
     trace = doc["stats"]["cost_trace"]
     assert trace and doc["stats"]["cost"] == trace[-1][1]
-    r = run_tmpc("validate", CLUTTER, out)
+    r = tmpc_here("validate", CLUTTER, out)
     assert r.returncode == 0, r.stdout + r.stderr
 
 

@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pytest
 
-from tests.support import EXAMPLES, run_tmpc
+from tests.support import EXAMPLES
 from tmpc.runtime.repair import (
     LoopConfig,
     RepairWorld,
@@ -333,10 +333,12 @@ def test_sigkill_mid_loop_then_resume_keeps_every_observation(tmp_path):
     with sqlite3.connect(db) as c:
         before = c.execute("SELECT seq, state, success FROM observations ORDER BY seq").fetchall()
     assert len(before) >= 30
-    again = run_tmpc(*args[3:])
-    assert again.returncode == 2 or "E849" in again.stderr     # not without --resume
-    again = run_tmpc(*args[3:], "--resume")
-    assert again.returncode == 0, again.stderr
+    # the runs after the kill in this process (a run's exit code, output and store are the
+    # same; the kill needs the process above)
+    rc, _, err = _run(*args[3:])
+    assert rc == 2 or "E849" in err     # not without --resume
+    rc, again, err = _run(*args[3:], "--resume")
+    assert rc == 0, err
     with sqlite3.connect(db) as c:
         after = c.execute("SELECT seq, state, success FROM observations ORDER BY seq").fetchall()
         unexpected = c.execute("SELECT COUNT(*) FROM observations WHERE expected = 0"
@@ -346,13 +348,13 @@ def test_sigkill_mid_loop_then_resume_keeps_every_observation(tmp_path):
     assert len(after) == 150 and unexpected >= 3
     # the resumed run draws what an uninterrupted one does
     fresh = tmp_path / "fresh.sqlite"
-    whole = run_tmpc(*[a if a != str(db) else str(fresh) for a in args[3:]])
-    assert whole.returncode == 0, whole.stderr
+    rc, whole, err = _run(*[a if a != str(db) else str(fresh) for a in args[3:]])
+    assert rc == 0, err
     with sqlite3.connect(fresh) as c:
         straight = c.execute("SELECT seq, state, success FROM observations ORDER BY seq"
                              ).fetchall()
     assert straight == after
-    assert whole.stdout.splitlines()[0] == again.stdout.splitlines()[0]
+    assert whole.splitlines()[0] == again.splitlines()[0]
 
 
 # ---- write-back and recorded observations ----------------------------------------------------
@@ -388,10 +390,10 @@ def test_recorded_observations_drive_repair_and_bad_lines_name_their_line(rw, tm
                                  "result": out.result}))
     obs = tmp_path / "obs.jsonl"
     obs.write_text("\n".join(lines) + "\n")
-    got = run_tmpc("repair", EXP1, "--action", "pick", "--observations", obs,
-                   "--db", tmp_path / "s.sqlite")
-    assert got.returncode == 0, got.stderr
-    first = got.stdout.splitlines()[0]
+    rc, got, err = _run("repair", EXP1, "--action", "pick", "--observations", obs,
+                        "--db", tmp_path / "s.sqlite")
+    assert rc == 0, err
+    first = got.splitlines()[0]
     theta = float(first.rsplit(" ", 1)[1].rstrip(")"))
     assert "(dist ?c ?g" in first and abs(theta - 0.15) < 0.03, first
     lines[7] = '{"state": {}, "action": "pick", "arguments": ["panda_hand_tcp", "cube"]}'
@@ -410,14 +412,23 @@ def test_recorded_observations_drive_repair_and_bad_lines_name_their_line(rw, tm
 
 def _cli(*argv) -> tuple[int, str]:
     """``tmpc ARGV`` in this process: (exit code, stderr)."""
+    rc, _, err = _run(*argv)
+    return rc, err
+
+
+def _run(*argv) -> tuple[int, str, str]:
+    """``tmpc ARGV`` in this process: (exit code, stdout, stderr)."""
     import contextlib
     import io
 
     from tmpc.runtime.cli.main import main
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        rc = main([str(a) for a in argv])
-    return rc, err.getvalue()
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            rc = main([str(a) for a in argv])
+        except SystemExit as exc:              # a usage error: argparse exits
+            rc = exc.code
+    return rc, out.getvalue(), err.getvalue()
 
 
 @pytest.mark.parametrize("argv,code", [
@@ -443,10 +454,10 @@ def test_a_store_from_another_domain_is_refused(tmp_path):
     assert rc == 1 and "E842" in err and "elsewhere" in err
 
 
-def test_the_experiment_command_writes_the_documented_report(tmp_path):
-    got = run_tmpc("repair", "--experiment", "1", "--trials", "1", "--report", tmp_path / "r",
-                   cwd=EXAMPLES.parent)
-    assert got.returncode == 0, got.stderr
+def test_the_experiment_command_writes_the_documented_report(tmp_path, monkeypatch):
+    monkeypatch.chdir(EXAMPLES.parent)
+    rc, _, err = _run("repair", "--experiment", "1", "--trials", "1", "--report", tmp_path / "r")
+    assert rc == 0, err
     report = json.loads((tmp_path / "r" / "report.json").read_text())
     assert report["experiment"] == 1
     (trial,) = report["trials"]

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from tests.support import EXAMPLES, FIXTURES, TABLETOP
+from tests.support import EXAMPLES, FIXTURES, TABLETOP, tmpc_here
 
 PLANS = FIXTURES / "plans"
 
@@ -373,8 +373,8 @@ def test_action_forms():
 # ---- the command --------------------------------------------------------------------------------
 
 def cli(*args):
-    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "validate", *map(str, args)],
-                          capture_output=True, text=True)
+    """`tmpc validate ARGS` in this process (tests.support.tmpc_here: exit code, stdout, stderr)."""
+    return tmpc_here("validate", *args)
 
 
 def test_cli_valid_invalid_json_and_malformed(tmp_path, plan):

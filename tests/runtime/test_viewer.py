@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, EXAMPLES, FIXTURES, TABLETOP
+from tests.support import CLUTTER, EXAMPLES, FIXTURES, TABLETOP, tmpc_here
 
 PLANS = FIXTURES / "plans"
 
@@ -206,8 +206,8 @@ def test_png_state_out_of_range(tabletop, plan, tmp_path):
 # ---- the command --------------------------------------------------------------------------------
 
 def cli(*args):
-    return subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "view", *map(str, args)],
-                          capture_output=True, text=True)
+    """`tmpc view ARGS` in this process (tests.support.tmpc_here: exit code, stdout, stderr)."""
+    return tmpc_here("view", *args)
 
 
 def test_cli(tmp_path):
