@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pytest
 
-from tests.support import EXAMPLES
+from tests.support import EXAMPLES, tmpc_here
 from tmpc.runtime.repair import (
     LoopConfig,
     RepairWorld,
@@ -418,17 +418,8 @@ def _cli(*argv) -> tuple[int, str]:
 
 def _run(*argv) -> tuple[int, str, str]:
     """``tmpc ARGV`` in this process: (exit code, stdout, stderr)."""
-    import contextlib
-    import io
-
-    from tmpc.runtime.cli.main import main
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            rc = main([str(a) for a in argv])
-        except SystemExit as exc:              # a usage error: argparse exits
-            rc = exc.code
-    return rc, out.getvalue(), err.getvalue()
+    got = tmpc_here(*argv)
+    return got.returncode, got.stdout, got.stderr
 
 
 @pytest.mark.parametrize("argv,code", [
