@@ -69,6 +69,9 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "lookahead": (bool, "the decoupled planner tries first the transition configurations "
                         "after which the plan's next step on the object grasped or put down "
                         "holds (default false; docs/planning.md)"),
+    "backjump": (bool, "the decoupled planner goes back from a step it cannot take to the "
+                       "latest step that moved what the step depends on (default false; "
+                       "docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

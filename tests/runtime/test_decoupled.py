@@ -248,16 +248,16 @@ def test_lazy_motions_come_from_the_manifest():
 
     class World:
         config = type("Config", (), {"params": (("lazy_motions", True),
-                                                ("lookahead", True))})()
+                                                ("lookahead", True), ("backjump", True))})()
 
     class Problem:
         world = World()
 
     opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
-    assert opt.lazy_motions and opt.lookahead
+    assert opt.lazy_motions and opt.lookahead and opt.backjump
     Problem.world.config = type("Config", (), {"params": ()})()
     opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
-    assert not opt.lazy_motions and not opt.lookahead
+    assert not opt.lazy_motions and not opt.lookahead and not opt.backjump
 
 
 def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(tabletop_run):
@@ -299,3 +299,72 @@ def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(table
     assert result.status == "solved" and result.stats["lookahead_projections"] > 0
     _, report = _validate(problem, result, "decoupled")
     assert report.valid, report.text()
+
+
+def _plan_steps(planner):
+    import math
+    assert planner.tasks.next_plan(math.inf)
+    return [(tr.action, tr) for tr in planner.tasks.plan_transitions]
+
+
+def test_backjumping_goes_back_to_the_culprit_past_the_steps_between(tabletop_run):
+    """With ``backjump``, a step none of whose configurations exists sends the search back to
+    the latest of its culprits (here said to be the first step), past the steps between,
+    which are sampled afresh only under the culprit's next configuration; without culprits,
+    or without ``backjump``, back to the step before."""
+    import math
+
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    problem, _ = tabletop_run
+
+    def follow(options, blame):
+        planner = DecoupledPlanner(problem, seed=0, options=options)
+        steps = _plan_steps(planner)
+        assert len(steps) == 4
+        last = steps[3][0]
+        calls: list[int] = []
+        real = planner.transition_samples
+
+        def sampling(mode, action, q, tr, keep=None):
+            calls.append(next(i for i, (a, _) in enumerate(steps) if a is action))
+            if action is last:                 # the second cube's placement never holds
+                planner.collided_now = []
+                return []
+            return real(mode, action, q, tr, keep)
+
+        planner.transition_samples = sampling
+        planner.culprits = lambda steps, i, mode, moved, collided: blame if i == 3 else set()
+        assert planner.follow(steps, math.inf) is None
+        return planner, calls
+
+    planner, calls = follow(DecoupledOptions(backjump=True), {0})
+    # every configuration of the first step is followed to the failing placement once: the
+    # second and third steps are sampled once under each, never for another of their own
+    n = calls.count(1)
+    assert calls[:4] == [0, 1, 2, 3] and calls.count(0) == 1 and n >= 2
+    assert calls.count(2) == calls.count(3) == n and planner.counts["backjumps"] == n
+    # no culprit: back to the step before, as without backjump
+    nobody, calls_nobody = follow(DecoupledOptions(backjump=True), set())
+    plain, calls_plain = follow(DecoupledOptions(), {0})
+    assert calls_nobody == calls_plain and calls_plain.count(2) > calls_plain.count(1)
+    assert nobody.counts["no_culprit"] >= 1 and "backjumps" not in plain.counts
+
+
+def test_culprits_are_the_latest_steps_that_moved_what_a_step_depends_on(tabletop_run):
+    """A step depends on the latest earlier step that moved each movable object its action
+    names (none: the object stands where it started); the goal's step on every object."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+    problem, _ = tabletop_run
+    planner = DecoupledPlanner(problem, seed=0)
+    steps = _plan_steps(planner)
+    movable = planner.tasks.task_planner().movable
+    x, y = ({a.lower() for a in steps[k][0].args} & movable for k in (0, 3))
+    (x,), (y,) = x, y
+    assert x != y
+    moved = [frozenset(), frozenset({x}), frozenset({x}), frozenset({y})]
+    mode = problem.initial
+    assert planner.culprits(steps, 3, mode, moved, []) == {2}
+    assert planner.culprits(steps, 2, mode, moved, []) == set()
+    assert planner.culprits(steps, 1, mode, moved, []) == {0}
+    goal = steps + [(None, None)]
+    assert planner.culprits(goal, 4, mode, moved + [frozenset({y})], []) == {1, 3}

@@ -13,8 +13,9 @@ current configuration, seven starts around it and eight uniform; up to ``sample_
 of wider and uniform starts while none is valid; collision-free in the current mode; nearest
 first), and the motion to each is planned (``motion_planner``, ``motion_budget`` seconds) until
 one succeeds; the step's successor mode is then derived at that configuration. A step none of
-whose samples can be reached sends the search back to the previous step's next sample; a plan
-whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
+whose samples can be reached sends the search back to the previous step's next sample (with
+``backjump``, a manifest's: of the latest step that moved an object its failures depend on,
+:meth:`DecoupledPlanner.culprits`); a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
 ``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
 ``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
 (:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
@@ -49,6 +50,11 @@ from tmpc.runtime.planners.retreat import best_retreat, hand_frames, retreat_cha
 from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
 
 
+#: collided configurations of a step's last sampling checked for what they hit
+#: (:meth:`DecoupledPlanner.culprits`)
+BLAME_CHECKS = 4
+
+
 @dataclass(frozen=True)
 class DecoupledOptions:
     motion_planner: str = DEFAULT_MOTION_PLANNER
@@ -75,6 +81,12 @@ class DecoupledOptions:
     #: (:meth:`DecoupledPlanner.looking_ahead`; tmpc's; a manifest's ``[planner]``): Blocks
     #: World F-J's; off by default, Blocks E planned 9/10 with it (docs/benchmarks.md)
     lookahead: bool = False
+    #: a step none of whose configurations led on sends the search back to the latest step
+    #: that moved an object its failures depend on, not to the step before it
+    #: (:meth:`DecoupledPlanner.culprits`; tmpc's; a manifest's ``[planner]``): Blocks World
+    #: E v0-v4 all planned with it (54-248 s); off by default until measured in full
+    #: (docs/planning.md)
+    backjump: bool = False
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -107,6 +119,9 @@ class DecoupledPlanner:
         self.mode_count = 1
         self.motion_seconds = 0.0
         self.plan_depth = 0              # the deepest step the last plan followed reached
+        #: the configurations of the last :meth:`transition_samples` call where the
+        #: precondition held but that collided (at most :data:`BLAME_CHECKS`)
+        self.collided_now: list[np.ndarray] = []
 
     @classmethod
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
@@ -130,7 +145,8 @@ class DecoupledPlanner:
             task_planner=str(over.get("task_planner",
                                       params.get("task_planner", base.task_planner))),
             lazy_motions=params.get("lazy_motions", base.lazy_motions) is True,
-            lookahead=params.get("lookahead", base.lookahead) is True)
+            lookahead=params.get("lookahead", base.lookahead) is True,
+            backjump=params.get("backjump", base.backjump) is True)
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
@@ -218,7 +234,12 @@ class DecoupledPlanner:
         the configurations of all the steps after it. Most task plans fail at a transition:
         Blocks World E's decoupled runs planned 1,050 motions in 300 s (250 s of them) for
         50 plans, most of them on plans that failed later at a step no motion could
-        change."""
+        change.
+
+        A step whose configurations are exhausted sends the search back to the latest step
+        it and the failed steps after it depend on (:meth:`culprits`; with ``backjump``, else
+        to the step before; a step with no culprit goes back to the step before too); a
+        motion that fails depends on every step before it."""
         p = self.p
         budget = max(self.opt.plan_budget, self.opt.plan_budget_per_step * len(steps))
         targets = budget                     # configurations taken before the first chain
@@ -227,6 +248,11 @@ class DecoupledPlanner:
         # per depth: the configuration, its mode, the action into it (None at the root and
         # the goal), the motion into it (None: not planned yet), the next step's samples left
         stack: list[list] = [[p.q0.copy(), p.initial, None, None, None]]
+        # per depth: the earlier steps the failures at and below it depend on (backjumping),
+        # the objects the step into it moved, and whether that step's own samples failed
+        # for reasons no object explains (a motion, the arms against each other)
+        conflicts: list[set] = [set()]
+        moved: list[frozenset] = [frozenset()]
         while stack and time.perf_counter() < deadline and budget > 0 and targets > 0:
             depth = len(stack) - 1
             self.plan_depth = max(self.plan_depth, depth)
@@ -236,22 +262,38 @@ class DecoupledPlanner:
                     return self.chain_path(stack)
                 budget -= 1
                 del stack[failed:]           # that configuration's step: its next sample
+                del conflicts[failed:], moved[failed:]
+                conflicts[-1].update(range(failed - 1))
                 eager = True
                 continue
             q, mode, _, _, todo = stack[-1]
             action, tr = steps[depth]
             if todo is None:
                 todo = stack[-1][4] = self.step_samples(steps, depth, mode, q)
+                conflicts[-1] |= self.culprits(steps, depth, mode, moved,
+                                               [] if todo else self.collided_now)
             if not todo:
                 self.counts["backtracks"] += 1
-                stack.pop()
+                back = depth - 1
+                if self.opt.backjump:
+                    found = conflicts[-1] - {depth}
+                    back = max(found, default=-1)
+                    if back < depth - 1:
+                        self.counts["backjumps"] = self.counts.get("backjumps", 0) + 1
+                    if back < 0 < depth:     # no culprit: back to the step before
+                        self.counts["no_culprit"] = self.counts.get("no_culprit", 0) + 1
+                        back = depth - 1
+                    if back >= 0:
+                        conflicts[back] |= found - {back}
+                del stack[back + 1:], conflicts[back + 1:], moved[back + 1:]
                 continue
             target = todo.pop(0)
             motion = None
             if eager:
                 motion = self.motion(mode, q, target, deadline)
                 budget -= 1
-                if motion is None:
+                if motion is None:           # a motion depends on everything before it
+                    conflicts[-1].update(range(depth))
                     continue
             else:
                 targets -= 1
@@ -262,7 +304,57 @@ class DecoupledPlanner:
                 succ = p.successor_mode(mode, action, target, self.mode_count)
                 self.mode_count += 1
             stack.append([target.copy(), succ, action, motion, None])
+            conflicts.append(set())
+            moved.append(self.moved_objects(mode, succ))
         return None
+
+    def culprits(self, steps: list, i: int, mode: Mode, moved: list,
+                 collided: list) -> set[int]:
+        """The earlier steps (indices) whose choices step ``i``'s configurations in ``mode``
+        depend on: for each movable object its action names (the goal's: every movable
+        object) or one of the ``collided`` configurations (where its precondition held: at
+        most :data:`BLAME_CHECKS` of a sampling that found none valid) hits, the latest step
+        that moved it (``moved[k + 1]``: the objects step ``k`` moved). An object no step
+        moved yet stands where it stood at the start. A collision of the robot with itself
+        (the other arm where an earlier step left it) depends on the step before.
+
+        With ``backjump``, a step whose configurations are exhausted sends the search to the
+        latest of its culprits and those of the steps after it that failed (conflict-directed
+        backjumping; none: the step before): Blocks World F's task plans failed at step 11-15
+        on a placement the right arm cannot reach where `b` stood, and the search had tried,
+        before giving up, every other configuration of the ten steps between that never
+        touched `b`."""
+        movable = self.tasks.task_planner().movable
+        action = steps[i][0]
+        if action is None:
+            objects = set(movable)
+        else:
+            objects = {x.lower() for lit in action.pre_geometric if lit.positive
+                       for x in lit.args if x.lower() in movable}
+        robot = False
+        scene = {k.lower() for k in mode.poses}
+        for q in collided:
+            for a, b, _ in self.p.collision.check(q, poses=mode.poses, attached=mode.held).pairs:
+                named = [x.lower() for x in (a, b) if x.lower() in movable]
+                objects.update(named)
+                robot |= a.lower() not in scene and b.lower() not in scene
+        out = {max(k for k in range(i) if x in moved[k + 1]) for x in objects
+               if any(x in moved[k + 1] for k in range(i))}
+        if robot and i > 0:
+            out.add(i - 1)
+        return out
+
+    @staticmethod
+    def moved_objects(mode: Mode, succ: Mode) -> frozenset:
+        """The objects (lower-case) a step from ``mode`` into ``succ`` took, released or
+        moved."""
+        held = set(mode.held or {}) ^ set(succ.held or {})
+        out = {x.lower() for x in held}
+        for name, T in succ.poses.items():
+            before = mode.poses.get(name)
+            if before is None or not np.array_equal(before, T):
+                out.add(name.lower())
+        return frozenset(out)
 
     def chain_motions(self, stack: list, deadline: float) -> int | None:
         """Plan the motions of the chain ``stack`` not planned yet, in order; the depth of
@@ -380,6 +472,7 @@ class DecoupledPlanner:
         first: projected from ``q`` and from uniform starts. An action without geometry
         happens at ``q``."""
         p = self.p
+        self.collided_now = []
         if action is not None and not p.has_geometry(action):
             return [q.copy()]
         out = []
@@ -402,6 +495,8 @@ class DecoupledPlanner:
                 else:
                     tr.record_failure(mode, qp, bool(h), float(d))
                     self.counts["transition_failures"] += 1
+                    if h and len(self.collided_now) < BLAME_CHECKS:
+                        self.collided_now.append(np.array(qp))
             if out:
                 break
         if out:                              # the nearest first: shorter motions
