@@ -15,9 +15,10 @@ first), and the motion to each is planned (``motion_planner``, ``motion_budget``
 one succeeds; the step's successor mode is then derived at that configuration. A step none of
 whose samples can be reached sends the search back to the previous step's next sample (with
 ``backjump``, a manifest's: of the latest step that moved an object its failures depend on,
-:meth:`DecoupledPlanner.culprits`); a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
-``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan. With
-``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
+:meth:`DecoupledPlanner.culprits`); a plan whose first step is exhausted, or whose motions
+took ``plan_budget`` attempts (or ``plan_budget_per_step`` per step of a longer plan), is
+given up for the next task plan. With ``lazy_motions`` (a manifest's) the motions wait until
+every step has a configuration
 (:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
 object tries first the configurations after which the plan's next step on that object holds
 (:meth:`DecoupledPlanner.looking_ahead`). When no task plan is left (the exclusions and
@@ -248,9 +249,9 @@ class DecoupledPlanner:
         # per depth: the configuration, its mode, the action into it (None at the root and
         # the goal), the motion into it (None: not planned yet), the next step's samples left
         stack: list[list] = [[p.q0.copy(), p.initial, None, None, None]]
-        # per depth: the earlier steps the failures at and below it depend on (backjumping),
-        # the objects the step into it moved, and whether that step's own samples failed
-        # for reasons no object explains (a motion, the arms against each other)
+        # per depth (with backjump): the earlier steps the failures at and below it depend
+        # on, and the objects the step into it moved
+        jump = self.opt.backjump
         conflicts: list[set] = [set()]
         moved: list[frozenset] = [frozenset()]
         while stack and time.perf_counter() < deadline and budget > 0 and targets > 0:
@@ -270,20 +271,20 @@ class DecoupledPlanner:
             action, tr = steps[depth]
             if todo is None:
                 todo = stack[-1][4] = self.step_samples(steps, depth, mode, q)
-                conflicts[-1] |= self.culprits(steps, depth, mode, moved,
-                                               [] if todo else self.collided_now)
+                if jump:
+                    conflicts[-1] |= self.culprits(steps, depth, mode, moved,
+                                                   [] if todo else self.collided_now)
             if not todo:
                 self.counts["backtracks"] += 1
                 back = depth - 1
-                if self.opt.backjump:
+                if jump and depth > 0:
                     found = conflicts[-1] - {depth}
-                    back = max(found, default=-1)
-                    if back < depth - 1:
-                        self.counts["backjumps"] = self.counts.get("backjumps", 0) + 1
-                    if back < 0 < depth:     # no culprit: back to the step before
+                    if not found:            # no culprit: back to the step before
                         self.counts["no_culprit"] = self.counts.get("no_culprit", 0) + 1
-                        back = depth - 1
-                    if back >= 0:
+                    else:
+                        back = max(found)
+                        if back < depth - 1:
+                            self.counts["backjumps"] = self.counts.get("backjumps", 0) + 1
                         conflicts[back] |= found - {back}
                 del stack[back + 1:], conflicts[back + 1:], moved[back + 1:]
                 continue
@@ -305,7 +306,7 @@ class DecoupledPlanner:
                 self.mode_count += 1
             stack.append([target.copy(), succ, action, motion, None])
             conflicts.append(set())
-            moved.append(self.moved_objects(mode, succ))
+            moved.append(self.moved_objects(mode, succ) if jump else frozenset())
         return None
 
     def culprits(self, steps: list, i: int, mode: Mode, moved: list,
