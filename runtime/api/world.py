@@ -131,10 +131,11 @@ class World:
         anytime planner, to improve its plan); None: the manifest's ``time_limit``, else
         120 s, stopping at the first plan. ``first_solution``: an anytime planner stops at
         its first plan (default: when no ``time_limit`` is given); ``options``: the planner's
-        other options (``tmpc run``'s flags, e.g. ``{"batch_size": 200}``). The first call sets up the planning problem;
-        later calls reuse it (no load, no compile) and time their set-up in
-        :attr:`last_overhead`. ``simplify="ompl"``: OMPL's path simplifier on the final plan's
-        motions (``tmpc run --simplify ompl``; default ``"tmpc"``: the planner's own)."""
+        other options (``tmpc run``'s flags, e.g. ``{"batch_size": 200}``). The first call
+        sets up the planning problem; later calls reuse it (no load, no compile) and time
+        their set-up in :attr:`last_overhead`. ``simplify="ompl"``: OMPL's path simplifier on
+        the final plan's motions (``tmpc run --simplify ompl``; default ``"tmpc"``: the
+        planner's own)."""
         t0 = time.perf_counter()
         overrides = dict(options or {})
         if simplify is not None:

@@ -264,14 +264,11 @@ def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(table
     """``lookahead``: a grasp's configurations are reordered by the placement that follows
     (projected in the mode after each), those after which it holds collision-free first;
     none is dropped, and the plan validates."""
-    import math
-
     from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
     from tmpc.runtime.problem import PROJECTION_BATCH
     problem, _ = tabletop_run
     planner = DecoupledPlanner(problem, seed=0, options=DecoupledOptions(lookahead=True))
-    assert planner.tasks.next_plan(math.inf)
-    steps = [(tr.action, tr) for tr in planner.tasks.plan_transitions]
+    steps = _plan_steps(planner)
     grasp, tr = steps[0]
     todo = planner.transition_samples(problem.initial, grasp, problem.q0, tr,
                                       keep=PROJECTION_BATCH)

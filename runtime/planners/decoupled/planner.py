@@ -121,7 +121,8 @@ class DecoupledPlanner:
         self.motion_seconds = 0.0
         self.plan_depth = 0              # the deepest step the last plan followed reached
         #: the configurations of the last :meth:`transition_samples` call where the
-        #: precondition held but that collided (at most :data:`BLAME_CHECKS`)
+        #: precondition held but that collided (at most :data:`BLAME_CHECKS`; with
+        #: ``backjump``)
         self.collided_now: list[np.ndarray] = []
 
     @classmethod
@@ -339,8 +340,8 @@ class DecoupledPlanner:
                 named = [x.lower() for x in (a, b) if x.lower() in movable]
                 objects.update(named)
                 robot |= a.lower() not in scene and b.lower() not in scene
-        out = {max(k for k in range(i) if x in moved[k + 1]) for x in objects
-               if any(x in moved[k + 1] for k in range(i))}
+        last = {x: k for k in range(i) for x in moved[k + 1]}     # the latest mover wins
+        out = {last[x] for x in objects if x in last}
         if robot and i > 0:
             out.add(i - 1)
         return out
@@ -496,7 +497,7 @@ class DecoupledPlanner:
                 else:
                     tr.record_failure(mode, qp, bool(h), float(d))
                     self.counts["transition_failures"] += 1
-                    if h and len(self.collided_now) < BLAME_CHECKS:
+                    if h and self.opt.backjump and len(self.collided_now) < BLAME_CHECKS:
                         self.collided_now.append(np.array(qp))
             if out:
                 break
