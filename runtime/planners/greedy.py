@@ -41,7 +41,8 @@ complete: ``exhausted`` means no plan of at most ``max_steps`` steps satisfies t
 planner first while its encoding is small: at most ``sat_clauses`` step clauses up to the
 shortest horizon not yet proven impossible. It gets ``sat_budget`` seconds a call, each horizon
 capped as ``horizon_cap`` says, and its plan is taken if it keeps the greedy planner's
-constraints (which are stronger: blocker rules). Otherwise, or on a timeout, the greedy search
+constraints (which are stronger: blocker evidence lasts until a blocker moves; the rules are
+clauses of the SAT planner too). Otherwise, or on a timeout, the greedy search
 answers; and only it once a SAT check overran its cap by more than ``stall`` seconds or
 three calls in a row ran out of their budget. On small problems the SAT planner's shortest
 plans are the better guide (Hanoi-3: solved in 46 s from SAT's plans, unsolved in 150 s from
@@ -484,9 +485,10 @@ class GreedyTaskPlanner:
 
 class PortfolioTaskPlanner:
     """The SAT planner while its encoding is small and it answers in time, else the greedy
-    planner (see the module docstring). Every constraint goes to both; a SAT plan that breaks
-    one only the greedy planner holds (a blocker or an action rule) is excluded in the SAT
-    planner through the step that breaks it, and the SAT planner asked again."""
+    planner (see the module docstring). Every constraint goes to both (rules too:
+    :meth:`TaskPlanner.add_blocker_rule` and the like); a SAT plan that breaks one only the
+    greedy planner holds is excluded in the SAT planner through the step that breaks it, and
+    the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
                  sat_clauses: int = 200_000, weight: float | None = None):
@@ -508,6 +510,8 @@ class PortfolioTaskPlanner:
         self.max_misses = 3
         #: the planners whose plans were taken, by name
         self.answers = {"greedy": 0, "sat": 0}
+        #: SAT plans that broke one of the greedy planner's constraints
+        self.rejected = 0
 
     @property
     def movable(self) -> frozenset[str]:
@@ -539,11 +543,17 @@ class PortfolioTaskPlanner:
                      blockers: Iterable[str] | None = None) -> bool:
         prefix = list(prefix)
         used = self._sat_call(self.sat.add_evidence, prefix, literal, value)
+        if blockers is not None and not value:
+            blockers = [b.lower() for b in blockers]
+            if not self.greedy.moved(prefix) & set(blockers):
+                self._sat_call(self.sat.add_blocker_rule, literal, blockers)
         return self.greedy.add_evidence(prefix, literal, value, blockers) or bool(used)
 
     def add_atom_rule(self, literal, atoms: Iterable[int]) -> bool:
-        """The greedy planner's atom rule; SAT plans that break it are excluded as plans that
-        break a blocker rule are."""
+        """The greedy planner's atom rule, and the SAT planner's where it has variables for
+        its atoms."""
+        atoms = list(atoms)
+        self._sat_call(self.sat.add_atom_rule, literal, atoms)
         return self.greedy.add_atom_rule(literal, atoms)
 
     def moved(self, prefix: Iterable[GroundAction]) -> set[str]:
@@ -552,9 +562,13 @@ class PortfolioTaskPlanner:
 
     def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
                         objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
-        """The greedy planner's action rule; SAT plans that break it are excluded as plans that
-        break a blocker rule are."""
-        return self.greedy.add_action_rule(prefix, action, objects, atoms)
+        """The greedy planner's action rule, and the SAT planner's where the greedy planner
+        takes it and the SAT planner has variables for its atoms."""
+        prefix, objects, atoms = list(prefix), list(objects), list(atoms)
+        if not self.greedy.add_action_rule(prefix, action, objects, atoms):
+            return False
+        self._sat_call(self.sat.add_action_rule, prefix, action, objects, atoms)
+        return True
 
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
@@ -583,16 +597,23 @@ class PortfolioTaskPlanner:
                     self.answers["sat"] += 1
                     self.sat_misses = 0
                     return res
-                # a plan the SAT planner's weaker constraints let through: teach it the
-                # prefix (or, for the goal, the plan) that breaks a blocker rule, and ask again
+                # a plan the SAT planner's weaker constraints let through (blocker evidence
+                # that lasts until a blocker moves, rules over atoms it has no variables
+                # for): teach it the prefix (or, for the goal, the plan) that breaks one,
+                # and ask again
+                self.rejected += 1
                 if k > len(res.actions):
                     self._sat_call(self.sat.exclude_plan, res.actions)
                 else:
                     self._sat_call(self.sat.exclude_prefix, res.actions[:k])
                 if self.sat_broken:
                     break
-            if res.status in (EXHAUSTED, UNREACHABLE):
+            # (a horizon the rules make impossible in the SAT planner may yet have a plan the
+            # greedy planner takes: there, evidence from a plan's own prefix beats a rule)
+            if res.status == UNREACHABLE or res.status == EXHAUSTED and not self.sat.rules:
                 return res
+            if res.status == EXHAUSTED:
+                self.sat_stalled = True
             self.sat_misses += 1                      # a timeout
             self.sat_stalled |= self.sat_misses >= self.max_misses
         left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))

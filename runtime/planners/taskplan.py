@@ -25,6 +25,11 @@ For the TMP planners (docs/math.md §B):
   that prefix (its first failed transition);
 * :meth:`TaskPlanner.add_evidence` — a geometric literal's value after a prefix, pinning its
   blocker (``geometric=True``; see the module docstring of :mod:`tmpc.compiler.smt.encode`);
+* :meth:`TaskPlanner.add_blocker_rule`, :meth:`TaskPlanner.add_atom_rule`,
+  :meth:`TaskPlanner.add_action_rule` — the greedy planner's rules
+  (:mod:`tmpc.runtime.planners.greedy`), which hold whatever came before: clauses in every
+  layer over ``moved`` variables of the objects they name (``mv<i>@k``: a step up to ``k``
+  moved object ``i``);
 * :meth:`TaskPlanner.plans` — distinct candidate plans, shortest first.
 
 Constraints naming steps beyond the encoded horizon wait until the horizon gets there.
@@ -130,6 +135,16 @@ class TaskPlanner:
         self._sizes: dict[int, tuple[int, int, float]] = {}
         #: per step, the term whose value names its action (:meth:`_extract`)
         self._step_terms: dict[int, object] = {}
+        #: the rules' templates (:meth:`add_blocker_rule` and the like), instantiated in every
+        #: layer (``@K``) and every step (``@P``, ``@K``), those encoded and those to come
+        self._every_layer: list[str] = []
+        self._every_step: list[str] = []
+        #: per movable object (lower-case), the name of its ``moved`` variable (``mv<i>@k``:
+        #: a step up to ``k`` moved it); the objects' movers, per object (lazily)
+        self._moved_vars: dict[str, str] = {}
+        self._movers: dict[str, list[int]] | None = None
+        #: the rules encoded (each known once)
+        self._rules: set[tuple] = set()
         self._extend_to(0)
 
     def _mutexes(self):
@@ -165,6 +180,10 @@ class TaskPlanner:
                 text += enc.step_text(n)
                 clauses += enc.sizes["step"][0]
                 variables += enc.sizes["step"][1]
+            text += "".join(t.replace("@K", f"@{n}") for t in self._every_layer)
+            if n:
+                text += "".join(t.replace("@P", f"@{n - 1}").replace("@K", f"@{n}")
+                                for t in self._every_step)
             ready = [c for need, c in self._pending if need <= n]
             self._pending = [(need, c) for need, c in self._pending if need > n]
             text += "".join(ready)
@@ -211,6 +230,116 @@ class TaskPlanner:
         for clause in self.encoding.evidence_clauses(prefix, m, value):
             self._add(len(prefix), clause)
         return True
+
+    # ---- rules: the greedy planner's, as clauses in every layer ---------------------------
+    # (:mod:`tmpc.runtime.planners.greedy`) Without them the portfolio's SAT planner gave plans
+    # that broke one, to be excluded and asked again: on Blocks World F, 514 of 738 SAT calls.
+    # A rule holds whatever came before, so its clauses go in every layer, those encoded and
+    # those to come, over ``moved`` variables of the objects it names.
+
+    def add_blocker_rule(self, literal: GeoLiteral | tuple, objects: Iterable[str]) -> bool:
+        """The geometric ``literal`` is false wherever none of ``objects`` has moved yet; False
+        (nothing added) if no precondition or goal uses it, none of ``objects`` is ever moved
+        or the rule is known."""
+        m = self._geo(literal)
+        movers = self._moved_lits(objects)
+        if m is None or not movers or not self._new_rule(("blocker", m, frozenset(movers))):
+            return False
+        self._false_where(m, movers)
+        return True
+
+    def add_atom_rule(self, literal: GeoLiteral | tuple, atoms: Iterable[int]) -> bool:
+        """The geometric ``literal`` is false wherever all of ``atoms`` (ids, at least one)
+        hold; False (nothing added) if no precondition or goal uses it, an atom has no
+        variable (nothing reads it) or the rule is known."""
+        m, atoms = self._geo(literal), sorted(set(atoms))
+        if m is None or not atoms or any(a not in self.encoding.relevant for a in atoms) or \
+                not self._new_rule(("atom", m, tuple(atoms))):
+            return False
+        self._false_where(m, [f"(not p{a}@K)" for a in atoms])
+        return True
+
+    def add_action_rule(self, prefix: Iterable[GroundAction], action: GroundAction,
+                        objects: Iterable[str] = (), atoms: Iterable[int] = ()) -> bool:
+        """``action`` is ruled out wherever all of ``atoms`` hold and none of ``objects`` has
+        moved (objects never moved count as not moved); False (nothing added) if one of
+        ``objects`` moved in ``prefix`` (where the failure was seen), an atom has no variable
+        or the rule is known. (The greedy planner's signature and meaning.)"""
+        atoms, objects = sorted(set(atoms)), {o.lower() for o in objects}
+        if any(a not in self.encoding.relevant for a in atoms):
+            return False
+        if any(ke.child.lower() in objects for a in prefix
+               for ke in list(a.kinematic) + [k for ce in a.conditional for k in ce.kinematic]):
+            return False
+        movers = self._moved_lits(objects)
+        if not self._new_rule(("action", action.id, frozenset(movers), tuple(atoms))):
+            return False
+        lits = [f"(not a{action.id}@K)"] + [f"(not p{a}@P)" for a in atoms] + \
+            [v.replace("@K", "@P") for v in movers]
+        self._template(step=_assert(lits))
+        return True
+
+    @property
+    def rules(self) -> int:
+        """The number of rules encoded."""
+        return len(self._rules)
+
+    def _geo(self, literal) -> int | None:
+        if not self.encoding.geometric:
+            raise ValueError("rules need a planner built with geometric=True")
+        return self.encoding.geo_index(literal)
+
+    def _new_rule(self, key: tuple) -> bool:
+        if key in self._rules:
+            return False
+        self._rules.add(key)
+        return True
+
+    def _false_where(self, m: int, lits: list[str]) -> None:
+        """In every layer: ``(or lits)`` or the literal ``m`` is known false there."""
+        self._template(layer=_assert(lits + [f"(not b{m}@K)"]) +
+                       _assert(lits + [f"(not g{m}@K)"]))
+
+    def _moved_lits(self, objects: Iterable[str]) -> list[str]:
+        """The ``moved`` variables (over layer ``@K``) of those of ``objects`` some action
+        moves, declared on first use."""
+        if self._movers is None:
+            self._movers = {}
+            for a in self.problem.actions:
+                for ke in list(a.kinematic) + [k for ce in a.conditional for k in ce.kinematic]:
+                    ids = self._movers.setdefault(ke.child.lower(), [])
+                    if not ids or ids[-1] != a.id:
+                        ids.append(a.id)
+        out = []
+        for name in sorted({o.lower() for o in objects}):
+            ids = self._movers.get(name)
+            if not ids:
+                continue
+            var = self._moved_vars.get(name)
+            if var is None:
+                var = self._moved_vars[name] = f"mv{len(self._moved_vars)}"
+                acts = " ".join(f"a{j}@K" for j in ids)
+                self._template(layer=f"(declare-const {var}@K Bool)",
+                               step=f"(assert (= {var}@K (or {var}@P {acts})))", init=var)
+            out.append(f"{var}@K")
+        return out
+
+    def _template(self, layer: str = "", step: str = "", init: str = "") -> None:
+        """Add ``layer`` to every layer and ``step`` to every step, encoded or to come;
+        ``init``: a variable false in layer 0."""
+        now = []
+        if layer:
+            self._every_layer.append(layer)
+            now += [layer.replace("@K", f"@{n}") for n in range(self.layers + 1)]
+        if init:
+            # layer 0 is encoded at construction: its unit clause is asserted at once
+            now.append(f"(assert (not {init}@0))")
+        if step:
+            self._every_step.append(step)
+            now += [step.replace("@P", f"@{n - 1}").replace("@K", f"@{n}")
+                    for n in range(1, self.layers + 1)]
+        if now:
+            self.solver.from_string("".join(now))
 
     # ---- solving ----------------------------------------------------------------------------
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,

@@ -631,3 +631,86 @@ def test_indexed_successors_are_every_applicable_action(seed):
         if not moves:
             break
         state = gp.apply(state, rng.choice(moves))
+
+
+def test_the_sat_planner_holds_the_greedy_planners_rules():
+    """Blocker, atom and action rules encoded in the SAT planner (every layer, encoded or to
+    come): its shortest plan keeps them, so the portfolio takes it without asking again."""
+    gp = _arm("(on x t2)", "x y z")
+    at_x = GeoLiteral("at", ("m", "x"), True)
+    pick = {s: gp.find_action("pick", s, "t1", "m") for s in "xyz"}
+    # a blocker rule added before any horizon is encoded: x's grasp is false until y moves
+    sat = TaskPlanner(gp, geometric=True)
+    assert sat.add_blocker_rule(at_x, ["Y"]) and not sat.add_blocker_rule(at_x, ["y"])
+    assert not sat.add_blocker_rule(at_x, ["t1"])             # never moved: no rule
+    r = sat.next_plan(max_steps=10)
+    assert r.solved and len(r.actions) == 4 and simulate(gp, r.actions)[0]
+    assert r.actions.index(pick["y"]) < r.actions.index(pick["x"])
+    # ... and added once horizons are encoded (the same plan, now excluded)
+    sat = TaskPlanner(gp, geometric=True)
+    assert sat.next_plan(max_steps=10).actions == [pick["x"], gp.find_action("place", "x",
+                                                                             "t2", "m")]
+    assert sat.add_blocker_rule(at_x, ["y"])
+    r = sat.next_plan(max_steps=10)
+    assert r.solved and r.actions.index(pick["y"]) < r.actions.index(pick["x"])
+    # an atom rule: x's grasp is false wherever y stands on t1 (moved and put back: again)
+    gp2 = _arm("(on x t2)", "x y")
+    y_on_t1 = next(i for i in range(len(gp2.atoms)) if gp2.atom_name(i) == "(on y t1)")
+    y_away = gp2.find_action("place", "y", "t2", "m")
+    sat = TaskPlanner(gp2, geometric=True)
+    sat.next_plan(max_steps=3)
+    assert sat.add_atom_rule(at_x, [y_on_t1]) and not sat.add_atom_rule(at_x, [y_on_t1])
+    r = sat.next_plan(max_steps=8)
+    assert r.solved and y_away in r.actions and len(r.actions) == 4
+    # action rules: placing x on t2 is ruled out where (lit) holds; picking x until y moves
+    gp3 = _arm("(on x t2) (lit)", "x y")
+    lit = next(i for i, atom in enumerate(gp3.atoms) if atom.predicate == "lit")
+    place, switch = gp3.find_action("place", "x", "t2", "m"), gp3.find_action("switch")
+    sat = TaskPlanner(gp3, geometric=True)
+    assert sat.add_action_rule([], place, atoms=[lit])
+    assert not sat.add_action_rule([], place, atoms=[lit])               # known
+    r = sat.next_plan(max_steps=8)
+    assert r.solved and r.actions[-1] is switch and len(r.actions) == 3
+    pick_x, pick_y = gp3.find_action("pick", "x", "t1", "m"), gp3.find_action("pick", "y", "t1",
+                                                                             "m")
+    assert not sat.add_action_rule([pick_y], pick_x, objects=["y"])       # y moved there
+    assert sat.add_action_rule([], pick_x, objects=["y"])
+    r = sat.next_plan(max_steps=8)
+    assert r.solved and len(r.actions) == 5 and r.actions[0].args[0] == "y"
+    assert simulate(gp3, r.actions)[0] and sat.rules == 2
+
+
+def _random_rules(rng: random.Random, gp, planners, n: int) -> None:
+    """``n`` random rules of the three kinds, from the initial state, to every planner."""
+    lits = [GeoLiteral("at", ("m", s), True) for s in ("x", "y")] + \
+        [GeoLiteral("above", ("m", t), True) for t in ("t1", "t2")]
+    atoms = [i for i in range(len(gp.atoms)) if gp.atoms[i].predicate in ("on", "lit")]
+    for _ in range(n):
+        kind, lit = rng.choice(("blocker", "atom", "action")), rng.choice(lits)
+        objs = rng.sample(["x", "y"], rng.randint(0, 2))
+        some = rng.sample(atoms, rng.randint(1, 2))
+        action = gp.actions[rng.randrange(len(gp.actions))]
+        with_atoms = rng.random() < 0.5
+        for pl in planners:
+            if kind == "blocker" and objs:
+                pl.add_evidence([], lit, False, blockers=objs)
+            elif kind == "atom":
+                pl.add_atom_rule(lit, some)
+            elif kind == "action":
+                pl.add_action_rule([], action, objs, some if with_atoms else ())
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_sat_plans_keep_random_rules(seed):
+    """Against the greedy planner (complete under its constraints): the same problems have a
+    plan under the same random rules, the portfolio's SAT planner is never asked again for a
+    plan breaking one, and no greedy plan is shorter than its shortest."""
+    rng = random.Random(seed)
+    gp = _arm("(on x t2) (on y t2)" if seed % 2 else "(on x t2) (lit)", "x y")
+    pf, greedy = PortfolioTaskPlanner(gp), GreedyTaskPlanner(gp)
+    _random_rules(rng, gp, (pf, greedy), rng.randint(1, 6))
+    a, b = pf.next_plan(max_steps=10, horizon_cap=5.0), greedy.next_plan(max_steps=10)
+    assert (a.status == SOLVED) == (b.status == SOLVED), (a.status, b.status)
+    if a.status == SOLVED:
+        assert pf.rejected == 0 and pf.answers["sat"] == 1
+        assert greedy.satisfies(a.actions) and len(a.actions) <= len(b.actions)

@@ -180,6 +180,9 @@ class TaskPlans:
         shortened = getattr(getattr(self.tp, "greedy", self.tp), "shortened", 0)
         if shortened:
             self.counts["task_plans_shortened"] = shortened
+        if getattr(self.tp, "rejected", 0):
+            # SAT plans that broke a constraint only the greedy planner holds
+            self.counts["sat_plans_rejected"] = self.tp.rejected
         self.plan = list(res.actions)
         self.plan_transitions = []
         sym = self.p.ground.init
