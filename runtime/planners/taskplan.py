@@ -242,8 +242,8 @@ class TaskPlanner:
         (nothing added) if no precondition or goal uses it, none of ``objects`` is ever moved
         or the rule is known."""
         m = self._geo(literal)
-        movers = self._moved_lits(objects)
-        if m is None or not movers or not self._new_rule(("blocker", m, frozenset(movers))):
+        movers = self._moved_lits(objects) if m is not None else []
+        if not movers or not self._new_rule(("blocker", m, frozenset(movers))):
             return False
         self._false_where(m, movers)
         return True
