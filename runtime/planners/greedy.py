@@ -612,10 +612,9 @@ class PortfolioTaskPlanner:
             # greedy planner takes: there, evidence from a plan's own prefix beats a rule)
             if res.status == UNREACHABLE or res.status == EXHAUSTED and not self.sat.rules:
                 return res
-            if res.status == EXHAUSTED:
-                self.sat_stalled = True
-            self.sat_misses += 1                      # a timeout
-            self.sat_stalled |= self.sat_misses >= self.max_misses
+            if res.status != EXHAUSTED:
+                self.sat_misses += 1                  # a timeout
+                self.sat_stalled |= self.sat_misses >= self.max_misses
         left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
         res = self.greedy.next_plan(max_steps, left, min_steps)
         if res.status == SOLVED:

@@ -714,3 +714,18 @@ def test_sat_plans_keep_random_rules(seed):
     if a.status == SOLVED:
         assert pf.rejected == 0 and pf.answers["sat"] == 1
         assert greedy.satisfies(a.actions) and len(a.actions) <= len(b.actions)
+
+
+def test_where_evidence_beats_a_rule_the_greedy_planner_answers():
+    """Evidence from a plan's own prefix beats a rule in the greedy planner; in the SAT
+    planner the two contradict, so its "no plan" is not the portfolio's answer."""
+    gp = _arm("(on x t2)", "x y")
+    at_x = GeoLiteral("at", ("m", "x"), True)
+    pf = PortfolioTaskPlanner(gp)
+    pf.add_evidence([], at_x, False, blockers=["y"])          # a blocker rule: y first
+    pf.add_evidence([], at_x, True)                           # ... but x's grasp held here
+    assert pf.sat.rules == 1
+    assert pf.sat.next_plan(max_steps=6).status == EXHAUSTED
+    r = pf.next_plan(max_steps=6, horizon_cap=1.0)
+    assert r.solved and [a.schema for a in r.actions] == ["pick", "place"]
+    assert pf.answers == {"greedy": 1, "sat": 0} and not pf.sat_stalled
