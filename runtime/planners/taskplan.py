@@ -40,6 +40,7 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Iterable, Iterator
 
 from tmpc.compiler.ground import GeoLiteral, GroundAction, GroundProblem
@@ -140,9 +141,8 @@ class TaskPlanner:
         self._every_layer: list[str] = []
         self._every_step: list[str] = []
         #: per movable object (lower-case), the name of its ``moved`` variable (``mv<i>@k``:
-        #: a step up to ``k`` moved it); the objects' movers, per object (lazily)
+        #: a step up to ``k`` moved it)
         self._moved_vars: dict[str, str] = {}
-        self._movers: dict[str, list[int]] | None = None
         #: the rules encoded (each known once)
         self._rules: set[tuple] = set()
         self._extend_to(0)
@@ -268,8 +268,7 @@ class TaskPlanner:
         atoms, objects = sorted(set(atoms)), {o.lower() for o in objects}
         if any(a not in self.encoding.relevant for a in atoms):
             return False
-        if any(ke.child.lower() in objects for a in prefix
-               for ke in list(a.kinematic) + [k for ce in a.conditional for k in ce.kinematic]):
+        if any(a.id in self._movers.get(o, ()) for o in objects for a in prefix):
             return False
         movers = self._moved_lits(objects)
         if not self._new_rule(("action", action.id, frozenset(movers), tuple(atoms))):
@@ -300,16 +299,19 @@ class TaskPlanner:
         self._template(layer=_assert(lits + [f"(not b{m}@K)"]) +
                        _assert(lits + [f"(not g{m}@K)"]))
 
+    @cached_property
+    def _movers(self) -> dict[str, set[int]]:
+        """Per object (lower-case) some action moves, the ids of the actions whose kinematic
+        effects (conditional ones too) move it."""
+        out: dict[str, set[int]] = {}
+        for a in self.problem.actions:
+            for ke in [*a.kinematic, *(k for ce in a.conditional for k in ce.kinematic)]:
+                out.setdefault(ke.child.lower(), set()).add(a.id)
+        return out
+
     def _moved_lits(self, objects: Iterable[str]) -> list[str]:
         """The ``moved`` variables (over layer ``@K``) of those of ``objects`` some action
         moves, declared on first use."""
-        if self._movers is None:
-            self._movers = {}
-            for a in self.problem.actions:
-                for ke in list(a.kinematic) + [k for ce in a.conditional for k in ce.kinematic]:
-                    ids = self._movers.setdefault(ke.child.lower(), [])
-                    if not ids or ids[-1] != a.id:
-                        ids.append(a.id)
         out = []
         for name in sorted({o.lower() for o in objects}):
             ids = self._movers.get(name)
@@ -318,7 +320,7 @@ class TaskPlanner:
             var = self._moved_vars.get(name)
             if var is None:
                 var = self._moved_vars[name] = f"mv{len(self._moved_vars)}"
-                acts = " ".join(f"a{j}@K" for j in ids)
+                acts = " ".join(f"a{j}@K" for j in sorted(ids))
                 self._template(layer=f"(declare-const {var}@K Bool)",
                                step=f"(assert (= {var}@K (or {var}@P {acts})))", init=var)
             out.append(f"{var}@K")
