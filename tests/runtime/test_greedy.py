@@ -375,6 +375,79 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     assert g.satisfies([pick_a, put_a, pick_d, put])
 
 
+def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chain(blocks_d):
+    """TaskPlans.anchor_rules on Blocks World D where the prefix moved the anchor (`c` taken
+    up and put back on the red tray): a placement on `c` never reached at REACH_PLACES
+    places of `c` is ruled out wherever `c` stands on the red tray, whatever came before (a
+    reach rule; the anchor rule "until c moves" cannot hold: c moved); at fewer places
+    nothing is learnt. A grasp of `c` likewise: its literal false wherever c stands there.
+    The other arm's placement stays open."""
+    import dataclasses
+
+    import numpy as np
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import (MISS_FAILURES, REACH_PLACES, TaskPlans,
+                                                     Transition)
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    R, L = "r_gripper_tool_frame", "l_gripper_tool_frame"
+    prefix = [gp.find_action("pickup", "c", "red-tray", R),
+              gp.find_action("putdown", "c", "red-tray", R),
+              gp.find_action("unstack", "d", "b", L)]
+    sym = gp.init
+    for a in prefix:
+        sym = gp.apply(sym, a)
+    stack = gp.find_action("stack", "d", "c", L)
+    name = next(k for k in mode.poses if k.lower() == "c")
+
+    def places(n: int) -> list:
+        out = []
+        for k in range(n):
+            T = np.array(mode.poses[name], dtype=float)
+            T[0, 3] += 0.05 * k
+            out.append(dataclasses.replace(mode, id=1000 + k, poses={**mode.poses, name: T},
+                                           held={"d": (L, np.eye(4))}))
+        return out
+
+    def failed(action, at, n: int) -> Transition:
+        tr = Transition(at, action, gp.apply(at, action))
+        modes = places(n)
+        for i in range(MISS_FAILURES):
+            tr.record_failure(modes[i % n], p.q0, False, 0.3)
+        assert tr.unreached
+        return tr
+
+    chain = 1 << atom["(on-surface c red-tray)"]
+    few = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    few.anchor_rules(prefix, failed(stack, sym, REACH_PLACES - 1))
+    g = few.task_planner().greedy
+    assert not g.action_rules and not g.atom_rules
+    counts: dict = {}
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+    tasks.anchor_rules(prefix, failed(stack, sym, REACH_PLACES))
+    g = tasks.task_planner().greedy
+    assert g.action_rules == {stack.id: [(0, chain)]} and counts["reach_rules"] == 1
+    assert g.violation(prefix + [stack]) == 4
+    assert g.violation([prefix[2], stack]) == 2          # c never moved: on the tray still
+    assert g.satisfies(prefix[:2] + [gp.find_action("unstack", "d", "b", R),
+                                     gp.find_action("stack", "d", "c", R)])
+    # a grasp of c after c was put back: its literal false wherever c stands on the tray
+    after = gp.init
+    for a in prefix[:2]:
+        after = gp.apply(after, a)
+    pick = gp.find_action("pickup", "c", "red-tray", L)
+    tr = Transition(after, pick, gp.apply(after, pick))
+    for i in range(MISS_FAILURES):
+        m = places(REACH_PLACES)[i % REACH_PLACES]
+        tr.record_failure(dataclasses.replace(m, held=None), p.q0, False, 0.3)
+    tasks.anchor_rules(prefix[:2], tr)
+    assert list(g.atom_rules.values()) == [[chain]] and counts["reach_rules"] == 2
+    assert g.violation([pick]) == 1 and g.violation(prefix[:2] + [pick]) == 3
+    assert g.satisfies(prefix[:2] + [gp.find_action("pickup", "c", "red-tray", R)])
+
+
 def test_a_z3_exception_in_the_sat_planner_leaves_the_greedy_planner_to_answer():
     """Z3 raises "canceled" where an interrupt lands outside a check (a Hanoi 6 run crashed on
     one): the portfolio takes it as a timeout, asks the SAT planner no more and keeps every

@@ -21,7 +21,12 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
 * never reached, its closest attempt a real miss: until one of the movable objects its literal
   names moves (the *anchors*: the object grasped, the one placed on; not what the hand holds),
   a grasp's literal is false (Blocks World E's right arm cannot reach `d`) and a placement is
-  ruled out (with no anchors, for good: the left arm and the far tray);
+  ruled out (with no anchors, for good: the left arm and the far tray). If the plan had put
+  an anchor where it stands, that rule cannot hold; never reached at :data:`REACH_PLACES`
+  places of its anchors, the grasp or placement is then ruled out wherever they stand on the
+  same support chain (a *reach rule*: Blocks World F's left arm cannot stack on `a` on the
+  red tray, wherever on it the right arm put `a`; 136 of a run's 397 task plans failed there
+  before, one each);
 * every kept collided attempt hit the scene's fixed objects (the action's own objects
   excepted, as for blockers): the placement is ruled out wherever the object it goes on stands
   on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
@@ -76,6 +81,12 @@ MISS = 0.02
 #: its closest attempt came: Blocks World F's left arm stacking on `a` on the red tray came
 #: within 2 cm in 864 attempts and never held
 MISS_FAILURES = 4 * RULE_FAILURES
+#: distinct places (:data:`PLACE_GRID`) of an unreached transition's anchors over its failed
+#: attempts before its failure holds wherever they stand on the same support chain (a *reach
+#: rule*, :meth:`TaskPlans.anchor_rules`)
+REACH_PLACES = 4
+#: the grid (metres) of the anchors' places a transition counts
+PLACE_GRID = 0.02
 
 
 @dataclass(eq=False)
@@ -95,6 +106,11 @@ class Transition:
     #: the last few attempts where the precondition held but the configuration collided,
     #: ``(mode, q)``: what blocked it (:meth:`TaskPlans.blockers`)
     collided: list = field(default_factory=list)
+    #: the places (:data:`PLACE_GRID` cells) of the objects the action names and the robot
+    #: does not hold, over the failed attempts (up to :data:`REACH_PLACES`)
+    places: set = field(default_factory=set)
+    #: the mode whose place was counted last (places are counted once per mode)
+    place_mode: int = -1
 
     def count(self, mode_id: int) -> None:
         """One more success, from mode ``mode_id``."""
@@ -113,12 +129,25 @@ class Transition:
         failed it); the best one (smallest distance, the precondition false) is kept for the
         blocker evidence :meth:`TaskPlans.learn` derives."""
         self.failures += 1
+        if self.action is not None and len(self.places) < REACH_PLACES and \
+                mode.id != self.place_mode:
+            self.place_mode = mode.id
+            self.places.add(self._place(mode))
         if self.action is not None and held:
             self.collided.append((mode, np.array(q)))
             del self.collided[:-KEEP_COLLIDED]
         if self.action is not None and not held and (self.best_fail is None
                                                      or distance < self.best_fail[0]):
             self.best_fail = (distance, mode, q)
+
+    def _place(self, mode: Mode) -> tuple:
+        """Where the objects the action names stand in ``mode`` (grid cells), those the robot
+        holds left out."""
+        held = {h.lower() for h in (mode.held or {})}
+        poses = {k.lower(): T for k, T in mode.poses.items()}
+        return tuple((x, tuple(np.floor(np.asarray(poses[x])[:3, 3] / PLACE_GRID).astype(int)))
+                     for x in (a.lower() for a in self.action.args)
+                     if x in poses and x not in held)
 
 
 class TaskPlans:
@@ -286,9 +315,18 @@ class TaskPlans:
         # movable objects some attempts hit besides the fixed ones: the rule holds until one
         # of them moves (none: wherever the chain holds)
         movers = sorted(set().union(*(hit[0] for hit in hits))) if fixed else []
+        moved = tp.moved(prefix)
         for lit, anchors, placement in self.anchored(tr):
-            if unreached and (tp.add_action_rule(prefix, tr.action, anchors) if placement else
-                              anchors and tp.add_evidence(prefix, lit, False, anchors)):
+            if unreached and anchors and moved.intersection(x.lower() for x in anchors):
+                # the anchors were put where they stand: unreached at REACH_PLACES places of
+                # them, it is unreached wherever they stand on the same support chain
+                chain = self.support_chain(tr.sym, anchors)
+                if len(tr.places) >= REACH_PLACES and chain and (
+                        tp.add_action_rule(prefix, tr.action, (), atoms=chain) if placement
+                        else tp.add_atom_rule(lit, chain)):
+                    self.counts["reach_rules"] = self.counts.get("reach_rules", 0) + 1
+            elif unreached and (tp.add_action_rule(prefix, tr.action, anchors) if placement
+                                else anchors and tp.add_evidence(prefix, lit, False, anchors)):
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
             if fixed and placement and anchors:
                 chain = self.support_chain(tr.sym, anchors)
