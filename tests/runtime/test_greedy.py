@@ -266,8 +266,12 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     held in MISS_FAILURES attempts is unreached however close they came; one on a fixed
     support whose attempts all hit fixed objects is ruled out for good."""
     from tmpc.runtime.planners.optimal import OptimalOptions
-    from tmpc.runtime.planners.optimal.tasks import (MISS_FAILURES, RULE_FAILURES, TaskPlans,
-                                                     Transition)
+    from tmpc.runtime.planners.optimal.tasks import (
+        MISS_FAILURES,
+        RULE_FAILURES,
+        TaskPlans,
+        Transition,
+    )
 
     p = blocks_d
     gp, mode = p.ground, p.initial
@@ -385,9 +389,14 @@ def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chai
     import dataclasses
 
     import numpy as np
+
     from tmpc.runtime.planners.optimal import OptimalOptions
-    from tmpc.runtime.planners.optimal.tasks import (MISS_FAILURES, REACH_PLACES, TaskPlans,
-                                                     Transition)
+    from tmpc.runtime.planners.optimal.tasks import (
+        MISS_FAILURES,
+        REACH_PLACES,
+        TaskPlans,
+        Transition,
+    )
 
     p = blocks_d
     gp, mode = p.ground, p.initial
