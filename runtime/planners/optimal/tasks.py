@@ -25,8 +25,8 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
   an anchor where it stands, that rule cannot hold; never reached at :data:`REACH_PLACES`
   places of its anchors, the grasp or placement is then ruled out wherever they stand on the
   same support chain (a *reach rule*: Blocks World F's left arm cannot stack on `a` on the
-  red tray, wherever on it the right arm put `a`; 136 of a run's 397 task plans failed there
-  before, one each);
+  red tray, wherever on it the right arm put `a`; 144 of a run's 397 task plans failed there
+  before, each excluded alone);
 * every kept collided attempt hit the scene's fixed objects (the action's own objects
   excepted, as for blockers): the placement is ruled out wherever the object it goes on stands
   on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
