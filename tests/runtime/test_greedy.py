@@ -405,9 +405,10 @@ def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chai
     prefix = [gp.find_action("pickup", "c", "red-tray", R),
               gp.find_action("putdown", "c", "red-tray", R),
               gp.find_action("unstack", "d", "b", L)]
-    sym = gp.init
+    states = [gp.init]                   # the states along the prefix
     for a in prefix:
-        sym = gp.apply(sym, a)
+        states.append(gp.apply(states[-1], a))
+    sym = states[-1]
     stack = gp.find_action("stack", "d", "c", L)
     name = next(k for k in mode.poses if k.lower() == "c")
 
@@ -443,14 +444,12 @@ def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chai
     assert g.satisfies(prefix[:2] + [gp.find_action("unstack", "d", "b", R),
                                      gp.find_action("stack", "d", "c", R)])
     # a grasp of c after c was put back: its literal false wherever c stands on the tray
-    after = gp.init
-    for a in prefix[:2]:
-        after = gp.apply(after, a)
+    after = states[2]
     pick = gp.find_action("pickup", "c", "red-tray", L)
     tr = Transition(after, pick, gp.apply(after, pick))
+    free = [dataclasses.replace(m, held=None) for m in places(REACH_PLACES)]
     for i in range(MISS_FAILURES):
-        m = places(REACH_PLACES)[i % REACH_PLACES]
-        tr.record_failure(dataclasses.replace(m, held=None), p.q0, False, 0.3)
+        tr.record_failure(free[i % REACH_PLACES], p.q0, False, 0.3)
     tasks.anchor_rules(prefix[:2], tr)
     assert list(g.atom_rules.values()) == [[chain]] and counts["reach_rules"] == 2
     assert g.violation([pick]) == 1 and g.violation(prefix[:2] + [pick]) == 3
