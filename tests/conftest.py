@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.support import CLUTTER, TABLETOP
+from tests.support import CLUTTER, ROOT, TABLETOP
 
 
 def pytest_xdist_auto_num_workers(config):
@@ -65,3 +65,12 @@ def clutter_problem_1(clutter_world):
     problem = PlanningProblem(clutter_world)
     problem.warm_up(np.random.default_rng(0))
     return problem
+
+
+@pytest.fixture(scope="session")
+def blocks_d():
+    """Blocks World D of the Lagriffoul suite (a PR2, two arms) as a planner sees it (read
+    only: planners and task planners built on it keep their own state)."""
+    from tmpc.compiler.artifact import open_world
+    from tmpc.runtime.problem import PlanningProblem
+    return PlanningProblem(open_world(ROOT / "examples/lagriffoul/blocks-D/run.toml"))

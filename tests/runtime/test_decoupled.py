@@ -365,3 +365,37 @@ def test_culprits_are_the_latest_steps_that_moved_what_a_step_depends_on(tableto
     assert planner.culprits(steps, 1, mode, moved, []) == {0}
     goal = steps + [(None, None)]
     assert planner.culprits(goal, 4, mode, moved + [frozenset({y})], []) == {1, 3}
+
+
+def test_a_steps_first_round_keeps_the_arm_its_action_does_not_use(blocks_d):
+    """DecoupledPlanner.transition_samples: after an action's first projection, its first
+    round of starts keeps the joints it never moves and that no joint it moves carries (a
+    PR2's other arm) where the robot is; its own wrist roll, free about a top grasp's axis,
+    is still sampled, and so is everything in the wider rounds."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+
+    p = blocks_d
+    gp, names = p.ground, p.model.q_names
+    planner = DecoupledPlanner(p, seed=0)
+    for hand, other, block, support in (("l", "r", "a", "table"), ("r", "l", "c", "red-tray")):
+        action = gp.find_action("pickup", block, support, f"{hand}_gripper_tool_frame")
+        tr = planner.tasks.transition(gp.init, action, gp.apply(gp.init, action))
+        planner.transition_samples(p.initial, action, p.q0, tr)
+        idle = planner.idle[action.id]
+        assert {names[j] for j in np.flatnonzero(idle)} == \
+            {n for n in names if n.startswith(f"{other}_")}
+        starts = []
+        real = p.project_raw
+
+        def project(mode, action, S, iterations=None):
+            starts.append(np.array(S))
+            return real(mode, action, S, iterations)
+        p.project_raw = project
+        try:
+            planner.transition_samples(p.initial, action, p.q0, tr)
+        finally:
+            del p.project_raw
+        assert np.all(starts[0][:, idle] == p.q0[idle])
+        wrist = names.index(f"{hand}_wrist_roll_joint")
+        assert len(set(starts[0][:, wrist])) > 1
+        assert all(len(set(S[:, idle][:, 0])) > 1 for S in starts[1:])   # wider rounds, if any

@@ -230,16 +230,6 @@ def test_an_action_rule_holds_where_its_atoms_do_until_its_objects_move():
     assert g.next_plan(max_steps=8).status == EXHAUSTED
 
 
-@pytest.fixture(scope="module")
-def blocks_d():
-    from pathlib import Path
-
-    from tmpc.compiler.artifact import open_world
-    from tmpc.runtime.problem import PlanningProblem
-    root = Path(__file__).resolve().parents[2]
-    return PlanningProblem(open_world(root / "examples/lagriffoul/blocks-D/run.toml"))
-
-
 def _configurations(p, want: dict, mode=None, n: int = 4000):
     """Uniform configurations of ``mode`` (``p``'s initial one) by what they collide with:
     ``want`` maps a name to a test of the set of scene objects a configuration hits."""
@@ -454,6 +444,135 @@ def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chai
     assert list(g.atom_rules.values()) == [[chain]] and counts["reach_rules"] == 2
     assert g.violation([pick]) == 1 and g.violation(prefix[:2] + [pick]) == 3
     assert g.satisfies(prefix[:2] + [gp.find_action("pickup", "c", "red-tray", R)])
+
+
+def test_reach_places_add_up_over_the_states_where_the_anchors_chain_holds(blocks_d):
+    """TaskPlans.anchor_rules counts an unreached action's places per support chain of its
+    anchors, over symbolic states: a stack on `c` put on the red tray, tried at 2 places of
+    `c` after one prefix and 2 others after another (where `a` stands elsewhere), is ruled
+    out on the red tray; places on another chain (`c` on the blue tray) count apart."""
+    import dataclasses
+
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import (
+        MISS_FAILURES,
+        REACH_PLACES,
+        TaskPlans,
+        Transition,
+    )
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    R, L = "r_gripper_tool_frame", "l_gripper_tool_frame"
+    name = next(k for k in mode.poses if k.lower() == "c")
+    stack = gp.find_action("stack", "d", "c", L)
+
+    def after(*steps) -> tuple[list, int]:
+        prefix = [gp.find_action(*step) for step in steps]
+        sym = gp.init
+        for a in prefix:
+            sym = gp.apply(sym, a)
+        return prefix, sym
+
+    def failed(at: int, first: int, n: int) -> Transition:
+        tr = Transition(at, stack, gp.apply(at, stack))
+        for i in range(MISS_FAILURES):
+            T = np.array(mode.poses[name], dtype=float)
+            T[0, 3] += 0.05 * (first + i % n)
+            tr.record_failure(dataclasses.replace(mode, id=1000 + first + i % n,
+                                                  poses={**mode.poses, name: T},
+                                                  held={"d": (L, np.eye(4))}),
+                              p.q0, False, 0.3)
+        assert tr.unreached and len(tr.places) == n
+        return tr
+
+    half = REACH_PLACES // 2
+    red = [("pickup", "c", "red-tray", R), ("putdown", "c", "red-tray", R),
+           ("unstack", "d", "b", L)]
+    moved_a = [("pickup", "a", "table", R), ("putdown", "a", "blue-tray", R)]
+    blue = [("pickup", "c", "red-tray", R), ("putdown", "c", "blue-tray", R),
+            ("unstack", "d", "b", L)]
+    counts: dict = {}
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+    g = tasks.task_planner().greedy
+    first, second, other = after(*red), after(*moved_a, *red), after(*blue)
+    assert first[1] != second[1]
+    tasks.anchor_rules(first[0], failed(first[1], 0, half))
+    tasks.anchor_rules(other[0], failed(other[1], half, REACH_PLACES - half))
+    assert not g.action_rules and "reach_rules" not in counts
+    tasks.anchor_rules(second[0], failed(second[1], half, REACH_PLACES - half))
+    chain = 1 << atom["(on-surface c red-tray)"]
+    assert g.action_rules == {stack.id: [(0, chain)]} and counts["reach_rules"] == 1
+    assert g.violation(first[0] + [stack]) == len(first[0]) + 1
+    assert g.violation(other[0] + [stack]) is None        # c on the blue tray: still open
+
+
+def test_a_state_rule_does_not_wait_for_what_its_stack_stands_on(blocks_d):
+    """TaskPlans.anchor_rules: a placement on `d` (on `b` on the blue tray) whose attempts
+    all hit the table is ruled out wherever that stack stands, though they hit `b` as well
+    and the plan had moved `b`: `b` cannot move while the stack holds. A block beside the
+    stack that the plan moved (`c`) and the attempts hit: the rule comes only once the
+    attempts were at REACH_PLACES places of `d` (over every state the stack stood in)."""
+    import dataclasses
+
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import (
+        REACH_PLACES,
+        RULE_FAILURES,
+        TaskPlans,
+        Transition,
+    )
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    R, L = "r_gripper_tool_frame", "l_gripper_tool_frame"
+    restack = [("unstack", "d", "b", R), ("putdown", "d", "red-tray", R),
+               ("pickup", "b", "blue-tray", R), ("putdown", "b", "blue-tray", R),
+               ("pickup", "d", "red-tray", R), ("stack", "d", "b", R)]
+    prefix = [gp.find_action(*step) for step in restack + [("pickup", "a", "table", L)]]
+    sym = gp.init
+    for a in prefix:
+        sym = gp.apply(sym, a)
+    stack = gp.find_action("stack", "a", "d", L)
+    chain = (1 << atom["(on d b)"]) | (1 << atom["(on-surface b blue-tray)"])
+    name = next(k for k in mode.poses if k.lower() == "d")
+    hits = _configurations(p, {
+        "b": lambda s: "table" in s and "b" in s and not s & {"a", "c", "d"},
+        "c": lambda s: "table" in s and "c" in s and not s & {"a", "b", "d"}})
+
+    def failed(at: int, first: int, n: int, q) -> Transition:
+        tr = Transition(at, stack, gp.apply(at, stack))
+        for i in range(RULE_FAILURES):
+            T = np.array(mode.poses[name], dtype=float)
+            T[0, 3] += 0.05 * (first + i % n)
+            tr.record_failure(dataclasses.replace(mode, id=1000 + first + i % n,
+                                                  poses={**mode.poses, name: T},
+                                                  held={"a": (L, np.eye(4))}), q, True, 0.0)
+        return tr
+
+    counts: dict = {}
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+    tasks.anchor_rules(prefix, failed(sym, 0, 1, hits["b"]))
+    g = tasks.task_planner().greedy
+    assert g.action_rules == {stack.id: [(0, chain)]} and counts["state_rules"] == 1
+    # c moved, then hit: at fewer places nothing; at REACH_PLACES of them (two transitions)
+    moved_c = [gp.find_action("pickup", "c", "red-tray", R),
+               gp.find_action("putdown", "c", "red-tray", R)]
+    other = gp.apply(gp.apply(sym, moved_c[0]), moved_c[1])
+    half = REACH_PLACES // 2
+    counts = {}
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+    g = tasks.task_planner().greedy
+    tasks.anchor_rules(prefix + moved_c, failed(other, 0, half, hits["c"]))
+    assert not g.action_rules
+    tasks.anchor_rules(moved_c + prefix, failed(other, half, REACH_PLACES - half, hits["c"]))
+    assert g.action_rules == {stack.id: [(0, chain)]} and counts["state_rules"] == 1
 
 
 def test_a_z3_exception_in_the_sat_planner_leaves_the_greedy_planner_to_answer():

@@ -124,6 +124,10 @@ class DecoupledPlanner:
         #: precondition held but that collided (at most :data:`BLAME_CHECKS`; with
         #: ``backjump``)
         self.collided_now: list[np.ndarray] = []
+        #: per ground action (None: the goal), the joints its first round of starts keeps
+        #: where the robot is (:meth:`idle_joints`)
+        self.idle: dict = {}
+        self._carried: list[frozenset] | None = None
 
     @classmethod
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
@@ -478,9 +482,13 @@ class DecoupledPlanner:
         if action is not None and not p.has_geometry(action):
             return [q.copy()]
         out = []
+        key = None if action is None else action.id
         for r in range(self.opt.sample_rounds):
             if r == 0:                       # nearby transitions first, far ones if those fail
                 starts = self.starts_around(q, self.rng)
+                idle = self.idle.get(key)
+                if idle is not None:         # the joints the action does not use stay put
+                    starts[:, idle] = q[idle]
             else:                            # none valid: wider, then uniform starts
                 near = q + self.rng.normal(0.0, 0.3, (PROJECTION_BATCH // 2, len(q))) \
                     * (p.upper - p.lower)
@@ -488,6 +496,8 @@ class DecoupledPlanner:
             self.counts["transition_samples"] += len(starts)
             Qp, holds, dist = p.project_raw(mode, action, starts,
                                             iterations=self.opt.projection_iterations)
+            if key not in self.idle:
+                self.idle[key] = self.idle_joints(~(np.abs(Qp - starts) > 1e-9).any(axis=0))
             ok = holds.copy()
             if ok.any():
                 ok[ok] = p.valid_batch(mode, Qp[ok])
@@ -504,6 +514,36 @@ class DecoupledPlanner:
         if out:                              # the nearest first: shorter motions
             out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
         return out[:keep or self.opt.samples]
+
+    def idle_joints(self, unmoved: np.ndarray) -> np.ndarray:
+        """Of the joints an action's projection never moved (``unmoved``, a mask), those no
+        joint it moved carries, the joints all the robot hangs on (a base, a torso) apart:
+        a PR2's other arm, not its own wrist roll, free about a top grasp's axis. An
+        action's first round of starts keeps those where the robot is (the other arm stays
+        put, as a one-arm motion leaves it; uniform values of it collided with the table,
+        the ceiling or the arm at work in most of Blocks World G's attempts and passed for
+        evidence against the placement); later rounds move every joint."""
+        carried = self.carried()
+        everything = frozenset().union(*carried)
+        own = [carried[a] for a in np.flatnonzero(~unmoved) if carried[a] != everything]
+        hold = unmoved.copy()
+        for j in np.flatnonzero(unmoved):
+            hold[j] = not any(carried[j] <= frames for frames in own)
+        return hold
+
+    def carried(self) -> list[frozenset]:
+        """Per joint, the robot's frames that move with it (forward kinematics at the
+        start configuration, each joint turned by 0.2 in turn)."""
+        if self._carried is None:
+            q = np.asarray(self.p.q0, float)
+            Q = np.repeat(q[None], len(q) + 1, axis=0)
+            Q[np.arange(1, len(q) + 1), np.arange(len(q))] += 0.2
+            frames = self.p.frames_of(Q)
+            base = frames[0]
+            self._carried = [frozenset(np.flatnonzero(
+                (np.abs(f.p - base.p) > 1e-9).any(axis=1)
+                | (np.abs(f.R - base.R) > 1e-9).any(axis=(1, 2)))) for f in frames[1:]]
+        return self._carried
 
     def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray,
                deadline: float) -> np.ndarray | None:

@@ -23,10 +23,11 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
   a grasp's literal is false (Blocks World E's right arm cannot reach `d`) and a placement is
   ruled out (with no anchors, for good: the left arm and the far tray). If the plan had put
   an anchor where it stands, that rule cannot hold; never reached at :data:`REACH_PLACES`
-  places of its anchors, the grasp or placement is then ruled out wherever they stand on the
-  same support chain (a *reach rule*: Blocks World F's left arm cannot stack on `a` on the
-  red tray, wherever on it the right arm put `a`; 144 of a run's 397 task plans failed there
-  before, each excluded alone);
+  places of its anchors (counted over every symbolic state where the action found them on
+  the same support chain), the grasp or placement is then ruled out wherever they stand on
+  that chain (a *reach rule*: Blocks World F's left arm cannot stack on `a` on the red tray,
+  wherever on it the right arm put `a`; 144 of a run's 397 task plans failed there before,
+  each excluded alone);
 * every kept collided attempt hit the scene's fixed objects (the action's own objects
   excepted, as for blockers): the placement is ruled out wherever the object it goes on stands
   on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
@@ -81,9 +82,10 @@ MISS = 0.02
 #: its closest attempt came: Blocks World F's left arm stacking on `a` on the red tray came
 #: within 2 cm in 864 attempts and never held
 MISS_FAILURES = 4 * RULE_FAILURES
-#: distinct places (:data:`PLACE_GRID`) of an unreached transition's anchors over its failed
-#: attempts before its failure holds wherever they stand on the same support chain (a *reach
-#: rule*, :meth:`TaskPlans.anchor_rules`)
+#: distinct places (:data:`PLACE_GRID`) of an unreached action's anchors over its failed
+#: attempts, in every symbolic state where they stand on the same support chain, before its
+#: failure holds wherever they stand on that chain (a *reach rule*,
+#: :meth:`TaskPlans.anchor_rules`)
 REACH_PLACES = 4
 #: the grid (metres) of the anchors' places a transition counts
 PLACE_GRID = 0.02
@@ -169,6 +171,9 @@ class TaskPlans:
         self._placing: set[str] | None = None
         #: :meth:`fixed_rule_due` per transition: (failures // RULE_FAILURES, answer)
         self._fixed_due: dict[int, tuple[int, bool]] = {}
+        #: the places an unreached action's anchors were tried at, per (action id, support
+        #: chain), over every symbolic state the chain holds in (:meth:`anchor_rules`)
+        self.reach_places: dict[tuple[int, tuple[int, ...]], set] = {}
 
     def task_planner(self) -> TaskPlanner:
         """The task planner ``task_planner`` names (``auto``: the SAT-or-greedy portfolio to a
@@ -319,9 +324,10 @@ class TaskPlans:
         for lit, anchors, placement in self.anchored(tr):
             if unreached and anchors and moved.intersection(x.lower() for x in anchors):
                 # the anchors were put where they stand: unreached at REACH_PLACES places of
-                # them, it is unreached wherever they stand on the same support chain
+                # them on one support chain (over the states it holds in), it is unreached
+                # wherever they stand on that chain
                 chain = self.support_chain(tr.sym, anchors)
-                if len(tr.places) >= REACH_PLACES and chain and (
+                if chain and self.seen_at_places(tr, chain) and (
                         tp.add_action_rule(prefix, tr.action, (), atoms=chain) if placement
                         else tp.add_atom_rule(lit, chain)):
                     self.counts["reach_rules"] = self.counts.get("reach_rules", 0) + 1
@@ -330,11 +336,26 @@ class TaskPlans:
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
             if fixed and placement and anchors:
                 chain = self.support_chain(tr.sym, anchors)
-                if chain and tp.add_action_rule(prefix, tr.action, movers, atoms=chain):
+                # what the chain stands on cannot move while it holds: not a mover
+                below = {x.lower() for i in chain for x in self.p.ground.atoms[i].args}
+                others = [x for x in movers if x not in below]
+                if chain and moved.intersection(others):
+                    # the plan moved one: at REACH_PLACES places of the anchors on the chain,
+                    # the placement is ruled out wherever the chain holds
+                    others = None if not self.seen_at_places(tr, chain) else ()
+                if chain and others is not None and \
+                        tp.add_action_rule(prefix, tr.action, others, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
             elif fixed and placement and tp.add_action_rule(prefix, tr.action, movers):
                 # on a fixed support: nothing the plan moves changes it but the movers
                 self.counts["fixed_rules"] = self.counts.get("fixed_rules", 0) + 1
+
+    def seen_at_places(self, tr: Transition, chain: list[int]) -> bool:
+        """Have ``tr``'s action's attempts, in every symbolic state where its anchors stood
+        on ``chain``, been at :data:`REACH_PLACES` places of them (``tr``'s counted in)?"""
+        places = self.reach_places.setdefault((tr.action.id, tuple(sorted(chain))), set())
+        places |= tr.places
+        return len(places) >= REACH_PLACES
 
     def anchored(self, tr: Transition) -> list[tuple]:
         """``(literal, anchors, placement?)`` for each positive geometric literal of ``tr``'s
