@@ -387,7 +387,7 @@ def test_a_steps_first_round_keeps_the_arm_its_action_does_not_use(blocks_d):
         starts = []
         real = p.project_raw
 
-        def project(mode, action, S, iterations=None):
+        def project(mode, action, S, iterations=None, starts=starts, real=real):
             starts.append(np.array(S))
             return real(mode, action, S, iterations)
         p.project_raw = project
