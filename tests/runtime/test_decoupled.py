@@ -367,16 +367,17 @@ def test_culprits_are_the_latest_steps_that_moved_what_a_step_depends_on(tableto
     assert planner.culprits(goal, 4, mode, moved + [frozenset({y})], []) == {1, 3}
 
 
-def test_a_steps_first_round_keeps_the_arm_its_action_does_not_use(blocks_d):
-    """DecoupledPlanner.transition_samples: after an action's first projection, its first
-    round of starts keeps the joints it never moves and that no joint it moves carries (a
-    PR2's other arm) where the robot is; its own wrist roll, free about a top grasp's axis,
-    is still sampled, and so is everything in the wider rounds."""
-    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+def test_a_step_keeps_the_arm_its_action_does_not_use_where_it_is(blocks_d):
+    """DecoupledPlanner.transition_samples: after an action's first projection, its starts
+    keep the joints it never moves and that no joint it moves carries (a PR2's other arm)
+    where the robot is; its own wrist roll, free about a top grasp's axis, is still sampled.
+    Where the other arm where it is collides, the wider rounds try their starts' values of
+    it: the configurations returned then move it and still hold the precondition."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
 
     p = blocks_d
     gp, names = p.ground, p.model.q_names
-    planner = DecoupledPlanner(p, seed=0)
+    planner = DecoupledPlanner(p, seed=0, options=DecoupledOptions(sample_rounds=8))
     for hand, other, block, support in (("l", "r", "a", "table"), ("r", "l", "c", "red-tray")):
         action = gp.find_action("pickup", block, support, f"{hand}_gripper_tool_frame")
         tr = planner.tasks.transition(gp.init, action, gp.apply(gp.init, action))
@@ -385,9 +386,9 @@ def test_a_steps_first_round_keeps_the_arm_its_action_does_not_use(blocks_d):
         assert {names[j] for j in np.flatnonzero(idle)} == \
             {n for n in names if n.startswith(f"{other}_")}
         starts = []
-        real = p.project_raw
+        real_project, real_valid = p.project_raw, p.valid_batch
 
-        def project(mode, action, S, iterations=None, starts=starts, real=real):
+        def project(mode, action, S, iterations=None, starts=starts, real=real_project):
             starts.append(np.array(S))
             return real(mode, action, S, iterations)
         p.project_raw = project
@@ -398,4 +399,16 @@ def test_a_steps_first_round_keeps_the_arm_its_action_does_not_use(blocks_d):
         assert np.all(starts[0][:, idle] == p.q0[idle])
         wrist = names.index(f"{hand}_wrist_roll_joint")
         assert len(set(starts[0][:, wrist])) > 1
-        assert all(len(set(S[:, idle][:, 0])) > 1 for S in starts[1:])   # wider rounds, if any
+        # the other arm where it is "collides": only the wider rounds' values of it can do
+
+        def valid(mode, Q, real=real_valid, idle=idle):
+            return real(mode, Q) & ~np.all(Q[:, idle] == p.q0[idle], axis=1)
+        starts.clear()
+        p.project_raw, p.valid_batch = project, valid
+        try:
+            out = planner.transition_samples(p.initial, action, p.q0, tr)
+        finally:
+            del p.project_raw, p.valid_batch
+        assert all(np.all(S[:, idle] == p.q0[idle]) for S in starts) and len(starts) > 1
+        assert out and all(np.any(x[idle] != p.q0[idle]) for x in out)
+        assert all(p.holds(p.initial, action, x) for x in out)
