@@ -367,12 +367,36 @@ def test_culprits_are_the_latest_steps_that_moved_what_a_step_depends_on(tableto
     assert planner.culprits(goal, 4, mode, moved + [frozenset({y})], []) == {1, 3}
 
 
-def test_a_step_keeps_the_arm_its_action_does_not_use_where_it_is(blocks_d):
+def _sample_steps(planner, action, tr, q, idle, blocked=()) -> tuple[list, list]:
+    """``planner.transition_samples`` of ``action`` from ``q`` in the initial mode, the
+    other arm (``idle``) "colliding" at each configuration of ``blocked``: (its
+    configurations, the projections' starts)."""
+    p = planner.p
+    starts = []
+    real_project, real_valid = p.project_raw, p.valid_batch
+
+    def project(mode, action, S, iterations=None):
+        starts.append(np.array(S))
+        return real_project(mode, action, S, iterations)
+
+    def valid(mode, Q):
+        out = real_valid(mode, Q)
+        for at in blocked:
+            out &= ~np.all(Q[:, idle] == at[idle], axis=1)
+        return out
+    p.project_raw, p.valid_batch = project, valid
+    try:
+        return planner.transition_samples(p.initial, action, q, tr), starts
+    finally:
+        del p.project_raw, p.valid_batch
+
+
+def test_a_step_puts_the_arm_its_action_does_not_use_back_where_it_started(blocks_d):
     """DecoupledPlanner.transition_samples: after an action's first projection, its starts
-    keep the joints it never moves and that no joint it moves carries (a PR2's other arm)
-    where the robot is; its own wrist roll, free about a top grasp's axis, is still sampled.
-    Where the other arm where it is collides, the wider rounds try their starts' values of
-    it: the configurations returned then move it and still hold the precondition."""
+    put the joints it never moves and that no joint it moves carries (a PR2's other arm)
+    where the run started them; its own wrist roll, free about a top grasp's axis, is still
+    sampled. Where the other arm there collides, the wider rounds try it where it is, then
+    at their starts' values: the configurations returned still hold the precondition."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
 
     p = blocks_d
@@ -385,30 +409,20 @@ def test_a_step_keeps_the_arm_its_action_does_not_use_where_it_is(blocks_d):
         idle = planner.idle[action.id]
         assert {names[j] for j in np.flatnonzero(idle)} == \
             {n for n in names if n.startswith(f"{other}_")}
-        starts = []
-        real_project, real_valid = p.project_raw, p.valid_batch
-
-        def project(mode, action, S, iterations=None, starts=starts, real=real_project):
-            starts.append(np.array(S))
-            return real(mode, action, S, iterations)
-        p.project_raw = project
-        try:
-            planner.transition_samples(p.initial, action, p.q0, tr)
-        finally:
-            del p.project_raw
-        assert np.all(starts[0][:, idle] == p.q0[idle])
+        # the other arm elsewhere than where it started, collision-free
+        Q = np.repeat(p.q0[None], 64, axis=0)
+        Q[:, idle] = p.uniform(np.random.default_rng(1), 64)[:, idle]
+        q = Q[np.flatnonzero(p.valid_batch(p.initial, Q))[0]]
+        _, starts = _sample_steps(planner, action, tr, q, idle)
+        assert all(np.all(S[:, idle] == p.q0[idle]) for S in starts)
         wrist = names.index(f"{hand}_wrist_roll_joint")
         assert len(set(starts[0][:, wrist])) > 1
-        # the other arm where it is "collides": only the wider rounds' values of it can do
-
-        def valid(mode, Q, real=real_valid, idle=idle):
-            return real(mode, Q) & ~np.all(Q[:, idle] == p.q0[idle], axis=1)
-        starts.clear()
-        p.project_raw, p.valid_batch = project, valid
-        try:
-            out = planner.transition_samples(p.initial, action, p.q0, tr)
-        finally:
-            del p.project_raw, p.valid_batch
-        assert all(np.all(S[:, idle] == p.q0[idle]) for S in starts) and len(starts) > 1
-        assert out and all(np.any(x[idle] != p.q0[idle]) for x in out)
+        # back where it started collides: where it is
+        out, starts = _sample_steps(planner, action, tr, q, idle, [p.q0])
+        assert len(starts) > 1 and out and all(np.all(x[idle] == q[idle]) for x in out)
+        assert all(p.holds(p.initial, action, x) for x in out)
+        # ... and so does where it is: the starts' values
+        out, _ = _sample_steps(planner, action, tr, q, idle, [p.q0, q])
+        assert out and all(np.any(x[idle] != q[idle]) and np.any(x[idle] != p.q0[idle])
+                           for x in out)
         assert all(p.holds(p.initial, action, x) for x in out)

@@ -11,8 +11,8 @@ movable objects). A plan is followed depth first: at each step, up to ``samples`
 configurations are projected onto the action's geometric precondition (the first round from the
 current configuration, seven starts around it and eight uniform; up to ``sample_rounds`` rounds
 of wider and uniform starts while none is valid; the joints the action does not use, such as
-the other arm, kept where they are, :meth:`DecoupledPlanner.idle_joints`; collision-free in
-the current mode; nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget`` seconds) until
+the other arm, back where the run started them, :meth:`DecoupledPlanner.idle_joints`;
+collision-free in the current mode; nearest first), and the motion to each is planned (``motion_planner``, ``motion_budget`` seconds) until
 one succeeds; the step's successor mode is then derived at that configuration. A step none of
 whose samples can be reached sends the search back to the previous step's next sample (with
 ``backjump``, a manifest's: of the latest step that moved an object its failures depend on,
@@ -125,8 +125,8 @@ class DecoupledPlanner:
         #: precondition held but that collided (at most :data:`BLAME_CHECKS`; with
         #: ``backjump``)
         self.collided_now: list[np.ndarray] = []
-        #: per ground action (None: the goal), the joints its starts keep where the robot
-        #: is (:meth:`idle_joints`; learnt from its first projection)
+        #: per ground action (None: the goal), the joints its starts put where the run
+        #: started them (:meth:`idle_joints`; learnt from its first projection)
         self.idle: dict = {}
         self._carried: list[frozenset] | None = None
 
@@ -491,13 +491,15 @@ class DecoupledPlanner:
                 near = q + self.rng.normal(0.0, 0.3, (PROJECTION_BATCH // 2, len(q))) \
                     * (p.upper - p.lower)
                 starts = np.vstack([p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
-            # the joints the action does not use stay put; in the wider rounds, where that
-            # collides, their start values are tried as well
+            # the joints the action does not use go back to where the run started them; in
+            # the wider rounds, where that collides, where they are and the start values
             idle = self.idle.get(key)
-            other = None
+            others = []
             if idle is not None and idle.any():
-                other = starts[:, idle].copy() if r > 0 else None
-                starts[:, idle] = q[idle]
+                if r > 0:
+                    others = [np.broadcast_to(q[idle], starts[:, idle].shape),
+                              starts[:, idle].copy()]
+                starts[:, idle] = p.q0[idle]
             self.counts["transition_samples"] += len(starts)
             Qp, holds, dist = p.project_raw(mode, action, starts,
                                             iterations=self.opt.projection_iterations)
@@ -506,12 +508,14 @@ class DecoupledPlanner:
             ok = holds.copy()
             if ok.any():
                 ok[ok] = p.valid_batch(mode, Qp[ok])
-            moved_away = holds & ~ok if other is not None else None
-            if moved_away is not None and moved_away.any():
-                Qa = Qp[moved_away]
-                Qa[:, idle] = other[moved_away]
+            for other in others:
+                retry = holds & ~ok
+                if not retry.any():
+                    break
+                Qa = Qp[retry]
+                Qa[:, idle] = other[retry]
                 good = p.valid_batch(mode, Qa)
-                rows = np.flatnonzero(moved_away)[good]
+                rows = np.flatnonzero(retry)[good]
                 Qp[rows], ok[rows] = Qa[good], True
             for qp, h, good, d in zip(Qp, holds, ok, dist):
                 if good:
@@ -531,13 +535,14 @@ class DecoupledPlanner:
         """Of the joints an action's projection never moved (``unmoved``, a mask), those no
         joint it moved carries, the joints all the robot hangs on (a base, a torso) apart:
         a PR2's other arm, not its own wrist roll, free about a top grasp's axis. An
-        action's starts keep those where the robot is (the other arm stays put, as a
-        one-arm motion leaves it; uniform values of it collided with the table, the ceiling
-        or the arm at work in most of Blocks World G's attempts, and those collisions passed
-        for evidence against the placement). The precondition does not depend on them, so
-        the projection is the same; in the wider rounds a configuration that collides so is
-        tried again with their start values (the other arm out of the way), and a failed
-        attempt is recorded with the other arm where it is."""
+        action's starts put those where the run started them (the other arm back out of
+        the way: uniform values of it collided with the table, the ceiling or the arm at
+        work in most of Blocks World G's attempts, and those collisions passed for evidence
+        against the placement; left where it last worked, it stood in the way of the
+        motions). The precondition does not depend on them, so the projection is the same;
+        in the wider rounds a configuration that collides so is tried again with the other
+        arm where it is, then with the start's values of it. A failed attempt is recorded
+        with the other arm back where it started."""
         carried = self.carried()
         everything = frozenset().union(*carried)
         own = [carried[a] for a in np.flatnonzero(~unmoved) if carried[a] != everything]
