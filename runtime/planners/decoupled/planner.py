@@ -15,9 +15,9 @@ the other arm, back where the run started them, :meth:`DecoupledPlanner.idle_joi
 collision-free in the current mode; nearest first), and the motion to each is planned
 (``motion_planner``, ``motion_budget`` seconds) until one succeeds; the step's successor
 mode is then derived at that configuration. A step none of whose samples can be reached sends
-the search back to the previous step's next sample (with ``backjump``, a manifest's: of the latest step that moved an object its failures depend on,
-:meth:`DecoupledPlanner.culprits`); a plan whose first step is exhausted, or whose motions
-took ``plan_budget`` attempts (or ``plan_budget_per_step`` per step of a longer plan), is
+the search back to the previous step's next sample (with ``backjump``, a manifest's: of the
+latest step that moved an object its failures depend on, :meth:`DecoupledPlanner.culprits`);
+a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or ``plan_budget_per_step`` per step of a longer plan), is
 given up for the next task plan. With ``lazy_motions`` (a manifest's) the motions wait until
 every step has a configuration
 (:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
