@@ -17,9 +17,9 @@ collision-free in the current mode; nearest first), and the motion to each is pl
 mode is then derived at that configuration. A step none of whose samples can be reached sends
 the search back to the previous step's next sample (with ``backjump``, a manifest's: of the
 latest step that moved an object its failures depend on, :meth:`DecoupledPlanner.culprits`);
-a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or ``plan_budget_per_step`` per step of a longer plan), is
-given up for the next task plan. With ``lazy_motions`` (a manifest's) the motions wait until
-every step has a configuration
+a plan whose first step is exhausted, or whose motions took ``plan_budget`` attempts (or
+``plan_budget_per_step`` per step of a longer plan), is given up for the next task plan.
+With ``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
 (:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
 object tries first the configurations after which the plan's next step on that object holds
 (:meth:`DecoupledPlanner.looking_ahead`). When no task plan is left (the exclusions and
