@@ -72,6 +72,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "backjump": (bool, "the decoupled planner goes back from a step it cannot take to the "
                        "latest step that moved what the step depends on (default false; "
                        "docs/planning.md)"),
+    "park_idle": (bool, "the decoupled planner puts the arm a step does not use back where "
+                        "the run started it (default false; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

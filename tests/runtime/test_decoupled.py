@@ -392,16 +392,22 @@ def _sample_steps(planner, action, tr, q, idle, blocked=()) -> tuple[list, list]
 
 
 def test_a_step_puts_the_arm_its_action_does_not_use_back_where_it_started(blocks_d):
-    """DecoupledPlanner.transition_samples: after an action's first projection, its starts
-    put the joints it never moves and that no joint it moves carries (a PR2's other arm)
-    where the run started them; its own wrist roll, free about a top grasp's axis, is still
+    """DecoupledPlanner.transition_samples with ``park_idle`` (a manifest's; off by default):
+    after an action's first projection, its starts put the joints it never moves and that no
+    joint it moves carries (a PR2's other arm) where the run started them; its own wrist roll, free about a top grasp's axis, is still
     sampled. Where the other arm there collides, the wider rounds try it where it is, then
     at their starts' values: the configurations returned still hold the precondition."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
 
     p = blocks_d
     gp, names = p.ground, p.model.q_names
-    planner = DecoupledPlanner(p, seed=0, options=DecoupledOptions(sample_rounds=8))
+    off = DecoupledPlanner(p, seed=0)                   # off by default: a manifest's
+    action = gp.find_action("pickup", "a", "table", "l_gripper_tool_frame")
+    off.transition_samples(p.initial, action, p.q0,
+                           off.tasks.transition(gp.init, action, gp.apply(gp.init, action)))
+    assert not off.idle
+    planner = DecoupledPlanner(p, seed=0, options=DecoupledOptions(sample_rounds=8,
+                                                                   park_idle=True))
     for hand, other, block, support in (("l", "r", "a", "table"), ("r", "l", "c", "red-tray")):
         action = gp.find_action("pickup", block, support, f"{hand}_gripper_tool_frame")
         tr = planner.tasks.transition(gp.init, action, gp.apply(gp.init, action))

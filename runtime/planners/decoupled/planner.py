@@ -11,7 +11,8 @@ movable objects). A plan is followed depth first: at each step, up to ``samples`
 configurations are projected onto the action's geometric precondition (the first round from the
 current configuration, seven starts around it and eight uniform; up to ``sample_rounds`` rounds
 of wider and uniform starts while none is valid; the joints the action does not use, such as
-the other arm, back where the run started them, :meth:`DecoupledPlanner.idle_joints`;
+the other arm, back where the run started them with ``park_idle``, a manifest's,
+:meth:`DecoupledPlanner.idle_joints`;
 collision-free in the current mode; nearest first), and the motion to each is planned
 (``motion_planner``, ``motion_budget`` seconds) until one succeeds; the step's successor
 mode is then derived at that configuration. A step none of whose samples can be reached sends
@@ -89,6 +90,11 @@ class DecoupledOptions:
     #: E v0-v4 all planned with it (54-248 s); off by default until measured in full
     #: (docs/planning.md)
     backjump: bool = False
+    #: the arm a step does not use starts where the run started it (:meth:`DecoupledPlanner.
+    #: idle_joints`; tmpc's; a manifest's ``[planner]``): Blocks World E-J's (E 10/10, median
+    #: 69.0 s against 83.3 s without; G 9/10 against 7/10); off by default, Sort Clutter's
+    #: first four variations took 1.3-3.9x their table times with it (docs/benchmarks.md)
+    park_idle: bool = False
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -153,7 +159,8 @@ class DecoupledPlanner:
                                       params.get("task_planner", base.task_planner))),
             lazy_motions=params.get("lazy_motions", base.lazy_motions) is True,
             lookahead=params.get("lookahead", base.lookahead) is True,
-            backjump=params.get("backjump", base.backjump) is True)
+            backjump=params.get("backjump", base.backjump) is True,
+            park_idle=params.get("park_idle", base.park_idle) is True)
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
@@ -493,7 +500,7 @@ class DecoupledPlanner:
                 starts = np.vstack([p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
             # the joints the action does not use go back to where the run started them; in
             # the wider rounds, where that collides, where they are and the start values
-            idle = self.idle.get(key)
+            idle = self.idle.get(key) if self.opt.park_idle else None
             others = []
             if idle is not None and idle.any():
                 if r > 0:
@@ -503,7 +510,7 @@ class DecoupledPlanner:
             self.counts["transition_samples"] += len(starts)
             Qp, holds, dist = p.project_raw(mode, action, starts,
                                             iterations=self.opt.projection_iterations)
-            if idle is None:
+            if idle is None and self.opt.park_idle:
                 self.idle[key] = self.idle_joints(~(np.abs(Qp - starts) > 1e-9).any(axis=0))
             ok = holds.copy()
             if ok.any():
