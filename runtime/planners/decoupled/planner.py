@@ -90,10 +90,11 @@ class DecoupledOptions:
     #: E v0-v4 all planned with it (54-248 s); off by default until measured in full
     #: (docs/planning.md)
     backjump: bool = False
-    #: the arm a step does not use starts where the run started it (:meth:`DecoupledPlanner.
-    #: idle_joints`; tmpc's; a manifest's ``[planner]``): Blocks World E-J's (E 10/10, median
-    #: 69.0 s against 83.3 s without; G 9/10 against 7/10); off by default, Sort Clutter's
-    #: first four variations took 1.3-3.9x their table times with it (docs/benchmarks.md)
+    #: the arm a step does not use starts where the run started it
+    #: (:meth:`DecoupledPlanner.idle_joints`; tmpc's; a manifest's ``[planner]``): Blocks
+    #: World E-J's (E 10/10, median 69.0 s against 83.3 s without; G 9/10 against 7/10); off
+    #: by default, Sort Clutter's first four variations took 1.3-3.9x their table times with
+    #: it (docs/benchmarks.md)
     park_idle: bool = False
     min_steps: int = 0
     max_steps: int = 100
