@@ -369,6 +369,22 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     assert g.satisfies([pick_a, put_a, pick_d, put])
 
 
+def _modes_at_places(mode, block: str, first: int, n: int, held: dict | None) -> list:
+    """``n`` copies of ``mode`` (ids from 1000 + ``first``) with ``block`` moved 5 cm along x
+    per place from place ``first`` on, the robot holding ``held``: attempts at ``n`` places."""
+    import dataclasses
+
+    import numpy as np
+    name = next(k for k in mode.poses if k.lower() == block)
+    out = []
+    for k in range(first, first + n):
+        T = np.array(mode.poses[name], dtype=float)
+        T[0, 3] += 0.05 * k
+        out.append(dataclasses.replace(mode, id=1000 + k, poses={**mode.poses, name: T},
+                                       held=held))
+    return out
+
+
 def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chain(blocks_d):
     """TaskPlans.anchor_rules on Blocks World D where the prefix moved the anchor (`c` taken
     up and put back on the red tray): a placement on `c` never reached at REACH_PLACES
@@ -400,16 +416,9 @@ def test_unreached_where_a_plan_put_its_anchor_holds_on_the_anchors_support_chai
         states.append(gp.apply(states[-1], a))
     sym = states[-1]
     stack = gp.find_action("stack", "d", "c", L)
-    name = next(k for k in mode.poses if k.lower() == "c")
 
     def places(n: int) -> list:
-        out = []
-        for k in range(n):
-            T = np.array(mode.poses[name], dtype=float)
-            T[0, 3] += 0.05 * k
-            out.append(dataclasses.replace(mode, id=1000 + k, poses={**mode.poses, name: T},
-                                           held={"d": (L, np.eye(4))}))
-        return out
+        return _modes_at_places(mode, "c", 0, n, {"d": (L, np.eye(4))})
 
     def failed(action, at, n: int) -> Transition:
         tr = Transition(at, action, gp.apply(at, action))
@@ -451,8 +460,6 @@ def test_reach_places_add_up_over_the_states_where_the_anchors_chain_holds(block
     anchors, over symbolic states: a stack on `c` put on the red tray, tried at 2 places of
     `c` after one prefix and 2 others after another (where `a` stands elsewhere), is ruled
     out on the red tray; places on another chain (`c` on the blue tray) count apart."""
-    import dataclasses
-
     import numpy as np
 
     from tmpc.runtime.planners.optimal import OptimalOptions
@@ -467,7 +474,6 @@ def test_reach_places_add_up_over_the_states_where_the_anchors_chain_holds(block
     gp, mode = p.ground, p.initial
     atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
     R, L = "r_gripper_tool_frame", "l_gripper_tool_frame"
-    name = next(k for k in mode.poses if k.lower() == "c")
     stack = gp.find_action("stack", "d", "c", L)
 
     def after(*steps) -> tuple[list, int]:
@@ -479,13 +485,9 @@ def test_reach_places_add_up_over_the_states_where_the_anchors_chain_holds(block
 
     def failed(at: int, first: int, n: int) -> Transition:
         tr = Transition(at, stack, gp.apply(at, stack))
+        modes = _modes_at_places(mode, "c", first, n, {"d": (L, np.eye(4))})
         for i in range(MISS_FAILURES):
-            T = np.array(mode.poses[name], dtype=float)
-            T[0, 3] += 0.05 * (first + i % n)
-            tr.record_failure(dataclasses.replace(mode, id=1000 + first + i % n,
-                                                  poses={**mode.poses, name: T},
-                                                  held={"d": (L, np.eye(4))}),
-                              p.q0, False, 0.3)
+            tr.record_failure(modes[i % n], p.q0, False, 0.3)
         assert tr.unreached and len(tr.places) == n
         return tr
 
@@ -516,8 +518,6 @@ def test_a_state_rule_does_not_wait_for_what_its_stack_stands_on(blocks_d):
     and the plan had moved `b`: `b` cannot move while the stack holds. A block beside the
     stack that the plan moved (`c`) and the attempts hit: the rule comes only once the
     attempts were at REACH_PLACES places of `d` (over every state the stack stood in)."""
-    import dataclasses
-
     import numpy as np
 
     from tmpc.runtime.planners.optimal import OptimalOptions
@@ -541,19 +541,15 @@ def test_a_state_rule_does_not_wait_for_what_its_stack_stands_on(blocks_d):
         sym = gp.apply(sym, a)
     stack = gp.find_action("stack", "a", "d", L)
     chain = (1 << atom["(on d b)"]) | (1 << atom["(on-surface b blue-tray)"])
-    name = next(k for k in mode.poses if k.lower() == "d")
     hits = _configurations(p, {
         "b": lambda s: "table" in s and "b" in s and not s & {"a", "c", "d"},
         "c": lambda s: "table" in s and "c" in s and not s & {"a", "b", "d"}})
 
     def failed(at: int, first: int, n: int, q) -> Transition:
         tr = Transition(at, stack, gp.apply(at, stack))
+        modes = _modes_at_places(mode, "d", first, n, {"a": (L, np.eye(4))})
         for i in range(RULE_FAILURES):
-            T = np.array(mode.poses[name], dtype=float)
-            T[0, 3] += 0.05 * (first + i % n)
-            tr.record_failure(dataclasses.replace(mode, id=1000 + first + i % n,
-                                                  poses={**mode.poses, name: T},
-                                                  held={"a": (L, np.eye(4))}), q, True, 0.0)
+            tr.record_failure(modes[i % n], q, True, 0.0)
         return tr
 
     counts: dict = {}

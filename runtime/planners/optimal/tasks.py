@@ -342,7 +342,7 @@ class TaskPlans:
                 if chain and moved.intersection(others):
                     # the plan moved one: at REACH_PLACES places of the anchors on the chain,
                     # the placement is ruled out wherever the chain holds
-                    others = None if not self.seen_at_places(tr, chain) else ()
+                    others = () if self.seen_at_places(tr, chain) else None
                 if chain and others is not None and \
                         tp.add_action_rule(prefix, tr.action, others, atoms=chain):
                     self.counts["state_rules"] = self.counts.get("state_rules", 0) + 1
