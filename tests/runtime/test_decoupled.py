@@ -260,6 +260,55 @@ def test_lazy_motions_come_from_the_manifest():
     assert not opt.lazy_motions and not opt.lookahead and not opt.backjump
 
 
+def test_the_motion_range_comes_from_the_manifest_and_reaches_ompls_planner(tabletop_run,
+                                                                             monkeypatch):
+    """A manifest's ``[planner] motion_range`` is the longest edge OMPL's planner grows its
+    trees by (``setRange``); 0, the default, leaves OMPL's own; a negative one is E851. The
+    motion planned with it is valid."""
+    import math
+
+    from tmpc.runtime.planners.decoupled import space as space_module
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    problem, _ = tabletop_run
+
+    class World:
+        config = type("Config", (), {"params": (("motion_range", 0.3),)})()
+
+    class Problem:
+        world = World()
+
+    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_range == 0.3
+    Problem.world.config = type("Config", (), {"params": ()})()
+    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_range == 0.0
+    Problem.world.config = type("Config", (), {"params": (("motion_range", -1.0),)})()
+    with pytest.raises(InputError) as err:
+        DecoupledPlanner.from_options(Problem(), 0, {})
+    assert err.value.diagnostics[0].code == "E851"
+
+    ob, og, ou = space_module.ompl_modules()
+    made: list = []
+
+    class Recorded:
+        def __getattr__(self, name):
+            return getattr(og, name)
+
+        def RRTConnect(self, si):
+            made.append(og.RRTConnect(si))
+            return made[-1]
+    monkeypatch.setattr(space_module, "ompl_modules", lambda: (ob, Recorded(), ou))
+    for value in (0.3, 0.0):
+        planner = DecoupledPlanner(problem, 0, DecoupledOptions(motion_range=value))
+        space = planner.motion_space()
+        assert space.range == value
+        steps = _plan_steps(planner)
+        q = planner.transition_samples(problem.initial, steps[0][0], problem.q0, steps[0][1])[0]
+        motion = planner.motion(problem.initial, problem.q0, q, math.inf)
+        assert motion is not None and space.path_valid(motion, problem.initial)
+        ranges = {round(planner.getRange(), 6) for planner in made}
+        made.clear()
+        # OMPL's own: a fifth of the space's extent
+        assert ranges == {value or round(0.2 * space.si.getMaximumExtent(), 6)}
+
 def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(tabletop_run):
     """``lookahead``: a grasp's configurations are reordered by the placement that follows
     (projected in the mode after each), those after which it holds collision-free first;

@@ -96,6 +96,10 @@ class DecoupledOptions:
     #: by default, Sort Clutter's first four variations took 1.3-3.9x their table times with
     #: it (docs/benchmarks.md)
     park_idle: bool = False
+    #: the longest edge (Euclidean over the configuration's coordinates) OMPL's planner
+    #: grows its trees by (0: OMPL's own, a fifth of the space's extent: 3.5 on Sort
+    #: Clutter's mobile PR2; a manifest's ``[planner]``)
+    motion_range: float = 0.0
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -161,14 +165,17 @@ class DecoupledPlanner:
             lazy_motions=params.get("lazy_motions", base.lazy_motions) is True,
             lookahead=params.get("lookahead", base.lookahead) is True,
             backjump=params.get("backjump", base.backjump) is True,
-            park_idle=params.get("park_idle", base.park_idle) is True)
+            park_idle=params.get("park_idle", base.park_idle) is True,
+            motion_range=float(params.get("motion_range", base.motion_range)))
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
-        if not (opts.motion_budget > 0 and opts.samples >= 1):
-            raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget} or "
-                                   f"samples {opts.samples} out of range", None,
-                                   "the motion budget is > 0 seconds, samples >= 1"))
+        if not (opts.motion_budget > 0 and opts.samples >= 1 and opts.motion_range >= 0):
+            raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget}, "
+                                   f"samples {opts.samples} or motion range "
+                                   f"{opts.motion_range} out of range", None,
+                                   "the motion budget is > 0 seconds, samples >= 1, the "
+                                   "motion range >= 0"))
         return cls(problem, seed, opts)
 
     def warm_up_calls(self) -> list:
@@ -187,6 +194,7 @@ class DecoupledPlanner:
     def motion_space(self):
         if self.space is None and self.opt.motion_planner != "tmpc":
             self.space = ompl_space(self.p, self.opt.resolution)
+            self.space.range = self.opt.motion_range
         return self.space
 
     # ---- the loop ----------------------------------------------------------------------------

@@ -80,6 +80,9 @@ class MotionSpace:
         self.p = problem
         self.resolution = resolution
         self.dim = n = len(problem.lower)
+        #: the longest edge OMPL's planners grow a tree by (``setRange``; 0: theirs, a fifth
+        #: of the space's extent)
+        self.range = 0.0
         self.mode: Mode = problem.initial
         self.counts = {"ompl_states_checked": 0, "ompl_motions_checked": 0}
         self.space = ob.RealVectorStateSpace(n)
@@ -153,7 +156,10 @@ class MotionSpace:
         objective = ob.PathLengthOptimizationObjective(self.si)
         objective.setCostThreshold(objective.infiniteCost())     # the first solution will do
         setup.setOptimizationObjective(objective)
-        setup.setPlanner(getattr(og, name)(self.si))
+        planner = getattr(og, name)(self.si)
+        if self.range > 0 and hasattr(planner, "setRange"):
+            planner.setRange(float(self.range))
+        setup.setPlanner(planner)
         status = setup.solve(float(budget))
         if not setup.haveExactSolutionPath():
             return None, str(status)
