@@ -738,14 +738,9 @@ def test_a_plan_stuck_where_its_arm_cannot_reach_is_hopeless(blocks_d):
     assert stacking(FIXED_FAILURES, hits["fixed"]).hopeless()
     assert not stacking(FIXED_FAILURES - 1, hits["fixed"]).hopeless()
     assert not stacking(FIXED_FAILURES, hits["block"]).hopeless()     # a block: a blocker
-    # whatever the failures, STUCK_FAILURES of them in this plan end it; those of the plans
-    # before it do not count
-    from tmpc.runtime.planners.optimal.tasks import STUCK_FAILURES
-    assert stacking(STUCK_FAILURES, hits["block"]).hopeless()
-    assert not stacking(STUCK_FAILURES - 1, hits["block"]).hopeless()
-    earlier = stacking(STUCK_FAILURES, hits["block"])
-    earlier.failures_before = {id(tr): 1 for tr in earlier.plan_transitions}
-    assert not earlier.hopeless()
+    # failures that no rule explains do not end the plan, however many: rare configurations
+    # (the kitchen's cabbage behind its radish) still come
+    assert not stacking(10 * FIXED_FAILURES, hits["block"]).hopeless()
     stuck = plan(RULE_FAILURES)
     stuck.plan = None                                               # no plan (exhausted)
     assert not stuck.hopeless()
