@@ -93,8 +93,9 @@ class DecoupledOptions:
     #: the arm a step does not use starts where the run started it
     #: (:meth:`DecoupledPlanner.idle_joints`; tmpc's; a manifest's ``[planner]``): Blocks
     #: World E-J's (E 10/10, median 69.0 s against 83.3 s without; G 9/10 against 7/10); off
-    #: by default, Sort Clutter's first four variations took 1.3-3.9x their table times with
-    #: it (docs/benchmarks.md)
+    #: by default: Sort Clutter's first four variations took 1.3-3.9x their table times with
+    #: it, though side by side its v0-v4 took 0.69-1.21x (median 0.94x) the time without it
+    #: (docs/benchmarks.md)
     park_idle: bool = False
     #: the longest edge (Euclidean over the configuration's coordinates) OMPL's planner
     #: grows its trees by (0: OMPL's own, a fifth of the space's extent: 3.5 on Sort
