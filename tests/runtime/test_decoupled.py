@@ -304,10 +304,11 @@ def test_the_motion_range_comes_from_the_manifest_and_reaches_ompls_planner(tabl
         q = planner.transition_samples(problem.initial, steps[0][0], problem.q0, steps[0][1])[0]
         motion = planner.motion(problem.initial, problem.q0, q, math.inf)
         assert motion is not None and space.path_valid(motion, problem.initial)
-        ranges = {round(planner.getRange(), 6) for planner in made}
+        ranges = {round(ompl.getRange(), 6) for ompl in made}
         made.clear()
         # OMPL's own: a fifth of the space's extent
         assert ranges == {value or round(0.2 * space.si.getMaximumExtent(), 6)}
+
 
 def test_lookahead_tries_first_what_the_next_step_on_the_object_can_follow(tabletop_run):
     """``lookahead``: a grasp's configurations are reordered by the placement that follows
