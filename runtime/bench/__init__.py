@@ -8,7 +8,7 @@ from tmpc.runtime.bench.dispatch import Dispatch as Dispatch
 from tmpc.runtime.bench.params import ParamError as ParamError
 from tmpc.runtime.bench.params import parse_params as parse_params
 from tmpc.runtime.bench.performance import ResultsError as ResultsError
-from tmpc.runtime.bench.performance import render as render_performance
+from tmpc.runtime.bench.performance import render as render_performance  # noqa: F401 - the door's name
 from tmpc.runtime.bench.report import write_report as write_report
 from tmpc.runtime.bench.results import read_results as read_results
 from tmpc.runtime.bench.sweep import Bench as Bench

@@ -586,4 +586,4 @@ def host_info() -> dict:
     return _HOST
 
 
-__all__ = ["run_bench", "Bench", "ompl_log", "summarize", "markdown_table", "quantile"]
+__all__ = ["Bench", "ompl_log", "summarize", "markdown_table", "quantile"]

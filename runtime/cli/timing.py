@@ -22,7 +22,7 @@ def run_time(args) -> int:
     check_plan_fits(world, plan, args.input)
     with open(args.plan, encoding="utf-8") as f:
         doc = json.load(f)
-    block = timed(world, doc, args)
+    timed(world, doc, args)
     if args.output:
         write_json_atomic(args.output, doc)
         sys.stderr.write(f"wrote {args.output}\n")

@@ -98,7 +98,7 @@ def test_anytime_cost_against_tmit_star(tmp_path):
             rows.append((pb, who, sum(bool(tr) for tr in traces), len(traces),
                          float(np.median(first)), at))
     assert rows
-    print(f"\n| problem | planner | solved | median first solution s | "
+    print("\n| problem | planner | solved | median first solution s | "
           + " | ".join(f"median best cost at {x} s" for x in TIMES if x <= limit) + " |")
     print("|---|---|---|---|" + "---|" * len([x for x in TIMES if x <= limit]))
     for pb, who, ok, n, first, at in rows:

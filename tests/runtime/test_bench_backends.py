@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
@@ -171,7 +170,6 @@ def _artifact(tmp_path) -> str:
 
 
 def test_report_draws_plots_and_a_page(tmp_path):
-    from tmpc.runtime.bench import write_report
     path = tmp_path / "r.jsonl"
     lines = []
     for seed in range(4):
