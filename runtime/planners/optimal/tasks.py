@@ -237,12 +237,13 @@ class TaskPlans:
         third to plan from 18,686 vertices in 30 s, where it plans from 8,107 in 7 s
         otherwise), or :data:`FIXED_FAILURES` times with a state rule due
         (:meth:`fixed_rule_due`)? That is what :meth:`learn` and :meth:`anchor_rules` learn
-        when the plan ends, so it ends now rather than after its batch budget. Blocks World E spent 65 s of one batch on 1,500 grasps of `b` out of the
-        right arm's reach, and up to 3,750 attempts a plan at a fifth block under the table's
-        ceiling. A transition that fails often for other reasons is not given up: the full
-        kitchen's grasp of a cabbage behind its radish holds in rare configurations, and a plan
-        ended after 960 of its failures (fifteenth session, removed) never planned kitchen v0
-        and v1, which plan without it."""
+        when the plan ends, so it ends now rather than after its batch budget. Blocks World E
+        spent 65 s of one batch on 1,500 grasps of `b` out of the right arm's reach, and up to
+        3,750 attempts a plan at a fifth block under the table's ceiling. A transition that
+        fails often for other reasons is not given up: the full kitchen's grasp of a cabbage
+        behind its radish holds in rare configurations, and a plan ended after 960 of its
+        failures (fifteenth session, removed) never planned kitchen v0 and v1, which plan
+        without it."""
         if self.plan is None or not getattr(self.tp, "takes_blockers", False):
             return False
         tr = next((tr for tr in self.plan_transitions if tr.successes == 0), None)
