@@ -49,7 +49,7 @@ def test_json_records_every_run(swept):
     assert [(r["planner"], r["seed"]) for r in runs] == [("unified", s) for s in range(SEEDS)]
     for r in runs:
         assert r["status"] == "solved" and r["solved"] and r["valid"] is True
-        assert r["violations"] == [] and r["validate_seconds"] > 0
+        assert r["violations"] == [] == r["warnings"] and r["validate_seconds"] > 0
         assert r["n_actions"] == len(r["actions"]) == 2 and r["states"] >= 3
         assert r["path_length"] > 0 and r["nodes"] >= r["states"]
         assert r["modes"] >= 3 and r["transitions"] >= 2
