@@ -44,7 +44,10 @@ capped as ``horizon_cap`` says, and its plan is taken if it keeps the greedy pla
 constraints (which are stronger: blocker evidence lasts until a blocker moves; the rules are
 clauses of the SAT planner too). Otherwise, or on a timeout, the greedy search
 answers; and only it once a SAT check overran its cap by more than ``stall`` seconds or
-three calls in a row ran out of their budget. On small problems the SAT planner's shortest
+three calls in a row ran out of their budget (on a loaded machine, a timing matter), except
+that a greedy search past ``greedy_budget`` expansions asks the SAT planner once more (and
+first again if it answers): under constraints its heuristic cannot see, the greedy search can
+run for minutes where the SAT planner answers in a second. On small problems the SAT planner's shortest
 plans are the better guide (Hanoi-3: solved in 46 s from SAT's plans, unsolved in 150 s from
 the greedy planner's plans of the same lengths); on large ones Z3's first check of a long
 horizon preprocesses without heeding its timeout.
@@ -347,15 +350,17 @@ class GreedyTaskPlanner:
 
     # ---- search -----------------------------------------------------------------------------
     def next_plan(self, max_steps: int = 200, time_limit: float | None = None,
-                  min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
+                  min_steps: int = 0, horizon_cap: float | None = None,
+                  budget: int | None = None) -> PlanResult:
         """A plan of ``min_steps..max_steps`` steps satisfying every constraint, found greedily
         (not the shortest), and then, with ``weight``, by weighted A* within ``weighted_budget``
         times the greedy search's expansions (its plan if it is shorter; goals are taken when
         generated, so its bound of ``weight`` times the shortest is loose by a step);
-        ``exhausted`` if there is none, ``timeout`` at ``time_limit``."""
+        ``exhausted`` if there is none, ``timeout`` at ``time_limit`` or after ``budget``
+        expansions of the greedy search."""
         t0 = time.perf_counter()
         before = self.expansions
-        res = self._search(max_steps, time_limit, min_steps, None, None)
+        res = self._search(max_steps, time_limit, min_steps, None, budget)
         if res.status != SOLVED or not self.weight:
             return res
         budget = max(self.weighted_floor, self.weighted_budget * (self.expansions - before))
@@ -491,7 +496,8 @@ class PortfolioTaskPlanner:
     the SAT planner asked again."""
 
     def __init__(self, problem: GroundProblem, stall: float = 2.0, sat_budget: float = 2.0,
-                 sat_clauses: int = 200_000, weight: float | None = None):
+                 sat_clauses: int = 200_000, weight: float | None = None,
+                 greedy_budget: int = 20_000, retry_budget: float = 10.0):
         self.problem = problem
         self.sat = TaskPlanner(problem, geometric=True)
         self.greedy = GreedyTaskPlanner(problem, weight)
@@ -512,6 +518,16 @@ class PortfolioTaskPlanner:
         self.answers = {"greedy": 0, "sat": 0}
         #: SAT plans that broke one of the greedy planner's constraints
         self.rejected = 0
+        #: once the SAT planner is stalled, the greedy search's expansions before the SAT
+        #: planner is asked once more, for ``retry_budget`` seconds (0: never), and asked
+        #: first again if it answers: under constraints that leave its heuristic no plan the
+        #: greedy search can run for minutes (Blocks World I v2, 250 s of a 300 s run, 45
+        #: task plans in) where the SAT planner answers in a second; a greedy search usually
+        #: takes 2,000-4,000 (2,500-10,000 a second)
+        self.greedy_budget = greedy_budget
+        self.retry_budget = retry_budget
+        #: greedy searches that ran out of ``greedy_budget`` and went to the SAT planner
+        self.retries = 0
 
     @property
     def movable(self) -> frozenset[str]:
@@ -574,40 +590,23 @@ class PortfolioTaskPlanner:
                   min_steps: int = 0, horizon_cap: float | None = None) -> PlanResult:
         """The SAT planner's shortest plan while its encoding is small enough to answer in
         time (``sat_budget`` seconds, each horizon capped at ``horizon_cap``), if it keeps the
-        greedy planner's constraints; else the greedy planner's plan."""
+        greedy planner's constraints; else the greedy planner's plan. Once the SAT planner is
+        stalled, a greedy search past ``greedy_budget`` expansions asks it once more
+        (``retry_budget`` seconds; no longer stalled if it answers) before searching on."""
         t0 = time.perf_counter()
+
+        def left() -> float | None:
+            return None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
+
         bound = max(self.sat.impossible_below(), min_steps, 1)
-        if not self.sat_stalled and \
-                self.sat.encoding.sizes["step"][0] * bound <= self.sat_clauses:
+        small = self.sat.encoding.sizes["step"][0] * bound <= self.sat_clauses
+        if not self.sat_stalled and small:
             budget = self.sat_budget if time_limit is None else min(self.sat_budget, time_limit)
-            cap = horizon_cap if horizon_cap is not None else budget
-            while True:
-                before = len(self.sat.stats)
-                left = budget - (time.perf_counter() - t0)
-                res = self._sat_call(self.sat.next_plan, max_steps, max(0.0, left), min_steps,
-                                     horizon_cap) if left > 0 else None
-                if res is None:                       # no time left, or Z3 raised
-                    res = PlanResult(TIMEOUT, None, 0)
-                if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
-                    self.sat_stalled = True
-                if res.status != SOLVED:
-                    break
-                k = self.greedy.violation(res.actions)
-                if k is None:
-                    self.answers["sat"] += 1
-                    self.sat_misses = 0
-                    return res
-                # a plan the SAT planner's weaker constraints let through (blocker evidence
-                # that lasts until a blocker moves, rules over atoms it has no variables
-                # for): teach it the prefix (or, for the goal, the plan) that breaks one,
-                # and ask again
-                self.rejected += 1
-                if k > len(res.actions):
-                    self._sat_call(self.sat.exclude_plan, res.actions)
-                else:
-                    self._sat_call(self.sat.exclude_prefix, res.actions[:k])
-                if self.sat_broken:
-                    break
+            res = self._sat_plan(max_steps, budget, min_steps, horizon_cap)
+            if res.status == SOLVED:
+                self.answers["sat"] += 1
+                self.sat_misses = 0
+                return res
             # (a horizon the rules make impossible in the SAT planner may yet have a plan the
             # greedy planner takes: there, evidence from a plan's own prefix beats a rule)
             if res.status == UNREACHABLE or res.status == EXHAUSTED and not self.sat.rules:
@@ -615,11 +614,60 @@ class PortfolioTaskPlanner:
             if res.status != EXHAUSTED:
                 self.sat_misses += 1                  # a timeout
                 self.sat_stalled |= self.sat_misses >= self.max_misses
-        left = None if time_limit is None else max(0.0, time_limit - (time.perf_counter() - t0))
-        res = self.greedy.next_plan(max_steps, left, min_steps)
+        elif small and not self.sat_broken and self.greedy_budget and self.retry_budget:
+            res = self.greedy.next_plan(max_steps, left(), min_steps, budget=self.greedy_budget)
+            if res.status == SOLVED:
+                self.answers["greedy"] += 1
+                return res
+            if res.status != TIMEOUT or left() == 0.0:
+                return res
+            # out of its budget: the SAT planner once more, and asked first again if it
+            # answers (without a check past its cap: the stall was the machine's moment)
+            self.retries += 1
+            self.sat_stalled, rest = False, left()
+            res = self._sat_plan(max_steps, self.retry_budget if rest is None else
+                                 min(self.retry_budget, rest), min_steps, horizon_cap)
+            if res.status == SOLVED:
+                self.answers["sat"] += 1
+                self.sat_misses = 0
+                return res
+            self.sat_stalled = True
+        res = self.greedy.next_plan(max_steps, left(), min_steps)
         if res.status == SOLVED:
             self.answers["greedy"] += 1
         return res
+
+    def _sat_plan(self, max_steps: int, budget: float, min_steps: int,
+                  horizon_cap: float | None) -> PlanResult:
+        """The SAT planner's shortest plan within ``budget`` seconds that keeps the greedy
+        planner's constraints, or its last answer (``timeout`` if none): a plan its weaker
+        constraints let through (blocker evidence that lasts until a blocker moves, rules
+        over atoms it has no variables for) teaches it the prefix (or, for the goal, the
+        plan) that breaks one, and it is asked again. A check past ``horizon_cap`` by more
+        than ``stall`` seconds stalls it."""
+        t0 = time.perf_counter()
+        cap = horizon_cap if horizon_cap is not None else budget
+        while True:
+            before = len(self.sat.stats)
+            left = budget - (time.perf_counter() - t0)
+            res = self._sat_call(self.sat.next_plan, max_steps, max(0.0, left), min_steps,
+                                 horizon_cap) if left > 0 else None
+            if res is None:                           # no time left, or Z3 raised
+                res = PlanResult(TIMEOUT, None, 0)
+            if any(st.solve_s > cap + self.stall for st in self.sat.stats[before:]):
+                self.sat_stalled = True
+            if res.status != SOLVED:
+                return res
+            k = self.greedy.violation(res.actions)
+            if k is None:
+                return res
+            self.rejected += 1
+            if k > len(res.actions):
+                self._sat_call(self.sat.exclude_plan, res.actions)
+            else:
+                self._sat_call(self.sat.exclude_prefix, res.actions[:k])
+            if self.sat_broken:
+                return PlanResult(TIMEOUT, None, 0)
 
     plan = next_plan
 

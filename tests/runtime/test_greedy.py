@@ -13,7 +13,15 @@ import pytest
 from tests.compiler.test_smt import _arm, _ground, bfs_length, random_problem
 from tmpc.compiler.ground import GeoLiteral
 from tmpc.runtime.planners.greedy import GreedyTaskPlanner, PortfolioTaskPlanner
-from tmpc.runtime.planners.taskplan import EXHAUSTED, SOLVED, UNREACHABLE, TaskPlanner, simulate
+from tmpc.runtime.planners.taskplan import (
+    EXHAUSTED,
+    SOLVED,
+    TIMEOUT,
+    UNREACHABLE,
+    PlanResult,
+    TaskPlanner,
+    simulate,
+)
 
 
 @pytest.mark.parametrize("seed", range(40))
@@ -926,3 +934,36 @@ def test_where_evidence_beats_a_rule_the_greedy_planner_answers():
     r = pf.next_plan(max_steps=6, horizon_cap=1.0)
     assert r.solved and [a.schema for a in r.actions] == ["pick", "place"]
     assert pf.answers == {"greedy": 1, "sat": 0} and not pf.sat_stalled
+
+
+def test_a_greedy_search_past_its_budget_asks_the_stalled_sat_planner_again():
+    """Once the SAT planner is stalled (a slow check on a loaded machine), a greedy search
+    that runs past ``greedy_budget`` expansions asks it once more: Blocks World I v2's greedy
+    search ran 250 s of a 300 s run where the SAT planner answers in a second. Its plan keeps
+    the greedy planner's constraints, and the SAT planner, answering, is asked first again;
+    with the retry off the greedy search answers."""
+    gp = _arm("(on x t2) (on y t2)", "x y z")
+    pf = PortfolioTaskPlanner(gp, greedy_budget=1)
+    pf.sat_stalled = True
+    pf.add_evidence([], GeoLiteral("at", ("m", "x"), True), False, blockers=["z"])
+    r = pf.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and pf.retries == 1 and pf.answers == {"greedy": 0, "sat": 1}
+    assert pf.greedy.satisfies(r.actions) and len(r.actions) == 6 and not pf.sat_stalled
+    pf.exclude_prefix(r.actions[:1])
+    r = pf.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and pf.retries == 1 and pf.answers == {"greedy": 0, "sat": 2}
+    # stalled again, within its budget the greedy search answers
+    pf.sat_stalled, pf.greedy_budget = True, 10 ** 6
+    r = pf.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and pf.retries == 1 and pf.answers == {"greedy": 1, "sat": 2}
+    off = PortfolioTaskPlanner(gp, greedy_budget=1, retry_budget=0)
+    off.sat_stalled = True
+    r = off.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and off.retries == 0 and off.answers == {"greedy": 1, "sat": 0}
+    # a retry without an answer leaves the SAT planner stalled and the greedy search on
+    slow = PortfolioTaskPlanner(gp, greedy_budget=1)
+    slow.sat_stalled = True
+    slow.sat.next_plan = lambda *args, **kwargs: PlanResult(TIMEOUT, None, 0)
+    r = slow.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and slow.retries == 1 and slow.sat_stalled
+    assert slow.answers == {"greedy": 1, "sat": 0}

@@ -218,6 +218,9 @@ class TaskPlans:
         if getattr(self.tp, "rejected", 0):
             # SAT plans that broke a constraint only the greedy planner holds
             self.counts["sat_plans_rejected"] = self.tp.rejected
+        if getattr(self.tp, "retries", 0):
+            # greedy searches past their budget that asked the stalled SAT planner again
+            self.counts["sat_retries"] = self.tp.retries
         self.plan = list(res.actions)
         self.plan_transitions = []
         sym = self.p.ground.init
