@@ -526,8 +526,11 @@ class PortfolioTaskPlanner:
         #: takes 2,000-4,000 (2,500-10,000 a second)
         self.greedy_budget = greedy_budget
         self.retry_budget = retry_budget
-        #: greedy searches that ran out of ``greedy_budget`` and went to the SAT planner
+        #: greedy searches that ran out of their budget and went to the SAT planner
         self.retries = 0
+        #: the greedy search's budget now: 4 times larger after each retry the SAT planner
+        #: did not answer, so where both are slow a task plan pays for few of them
+        self._retry_at = greedy_budget
 
     @property
     def movable(self) -> frozenset[str]:
@@ -592,7 +595,8 @@ class PortfolioTaskPlanner:
         time (``sat_budget`` seconds, each horizon capped at ``horizon_cap``), if it keeps the
         greedy planner's constraints; else the greedy planner's plan. Once the SAT planner is
         stalled, a greedy search past ``greedy_budget`` expansions asks it once more
-        (``retry_budget`` seconds; no longer stalled if it answers) before searching on."""
+        (``retry_budget`` seconds; no longer stalled if it answers, else the budget 4 times
+        larger) before searching on."""
         t0 = time.perf_counter()
 
         def left() -> float | None:
@@ -615,7 +619,7 @@ class PortfolioTaskPlanner:
                 self.sat_misses += 1                  # a timeout
                 self.sat_stalled |= self.sat_misses >= self.max_misses
         elif small and not self.sat_broken and self.greedy_budget and self.retry_budget:
-            res = self.greedy.next_plan(max_steps, left(), min_steps, budget=self.greedy_budget)
+            res = self.greedy.next_plan(max_steps, left(), min_steps, budget=self._retry_at)
             if res.status == SOLVED:
                 self.answers["greedy"] += 1
                 return res
@@ -632,6 +636,7 @@ class PortfolioTaskPlanner:
                 self.sat_misses = 0
                 return res
             self.sat_stalled = True
+            self._retry_at *= 4
         res = self.greedy.next_plan(max_steps, left(), min_steps)
         if res.status == SOLVED:
             self.answers["greedy"] += 1

@@ -953,7 +953,7 @@ def test_a_greedy_search_past_its_budget_asks_the_stalled_sat_planner_again():
     r = pf.next_plan(max_steps=12, horizon_cap=1.0)
     assert r.solved and pf.retries == 1 and pf.answers == {"greedy": 0, "sat": 2}
     # stalled again, within its budget the greedy search answers
-    pf.sat_stalled, pf.greedy_budget = True, 10 ** 6
+    pf.sat_stalled, pf._retry_at = True, 10 ** 6
     r = pf.next_plan(max_steps=12, horizon_cap=1.0)
     assert r.solved and pf.retries == 1 and pf.answers == {"greedy": 1, "sat": 2}
     off = PortfolioTaskPlanner(gp, greedy_budget=1, retry_budget=0)
@@ -967,3 +967,12 @@ def test_a_greedy_search_past_its_budget_asks_the_stalled_sat_planner_again():
     r = slow.next_plan(max_steps=12, horizon_cap=1.0)
     assert r.solved and slow.retries == 1 and slow.sat_stalled
     assert slow.answers == {"greedy": 1, "sat": 0}
+    # ... and the greedy search's budget 4 times larger: within 4 expansions it answers
+    # the next time without asking the SAT planner (with 1 it would ask again)
+    assert slow._retry_at == 4
+    slow.exclude_prefix(r.actions[:1])
+    r = slow.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and slow.retries == 1 and slow.answers == {"greedy": 2, "sat": 0}
+    slow._retry_at = 1
+    r = slow.next_plan(max_steps=12, horizon_cap=1.0)
+    assert r.solved and slow.retries == 2 and slow._retry_at == 4
