@@ -20,6 +20,7 @@ from tmpc.runtime.validate.report import Report
 from tmpc.runtime.validate.state import (
     JOINT_TOL,
     POSE_TOL,
+    SUPPORT_EDGE,
     SUPPORT_GAP,
     SUPPORT_SINK,
     SUPPORT_SLACK,
@@ -185,7 +186,8 @@ class StateChecks:
         if o.support is not None:
             local = np.linalg.inv(T) @ np.append(point, 1.0)
             lo, hi = o.support.lower, o.support.upper
-            slack = [SUPPORT_SLACK if hi[i] - lo[i] < 2 * SUPPORT_SLACK else 0.0 for i in (0, 1)]
+            slack = [SUPPORT_SLACK if hi[i] - lo[i] < 2 * SUPPORT_SLACK else SUPPORT_EDGE
+                     for i in (0, 1)]
             if lo[0] - slack[0] <= local[0] <= hi[0] + slack[0] and \
                     lo[1] - slack[1] <= local[1] <= hi[1] + slack[1]:
                 return float((T @ np.array([local[0], local[1], lo[2], 1.0]))[2])

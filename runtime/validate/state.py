@@ -21,6 +21,10 @@ SUPPORT_GAP, SUPPORT_SINK, SUPPORT_TILT = 0.01, 0.005, math.radians(5.0)
 #: a support region thinner than twice this (a point or a segment: the benchmark suite's pegs,
 #: blocks and targets) is met within it sideways (stdlib `placed-on` places within 5 mm)
 SUPPORT_SLACK = 0.008
+#: every support region is met within this sideways (m): the language's truth tolerance
+#: (tmpc's `inside` holds within 1 mm), where a projection lands on a region's edge (Blocks
+#: World's `putdown a red-tray`: the block's origin 0.09 mm past the tray region's corner)
+SUPPORT_EDGE = 0.001
 #: slack on joint limits and on values that must not change (rad or m)
 JOINT_TOL = 1e-6
 
@@ -94,6 +98,6 @@ def dict_text(d: dict) -> str:
     return "{" + ", ".join(f"{k}: {v}" for k, v in sorted(d.items())) + "}"
 
 
-__all__ = ["JOINT_TOL", "POSE_TOL", "SUPPORT_GAP", "SUPPORT_SINK", "SUPPORT_TILT", "ResolvedState",
-           "action_text", "dict_text", "held_order", "norm_action", "num_text", "pose_gap",
-           "pose_text", "report_order"]
+__all__ = ["JOINT_TOL", "POSE_TOL", "SUPPORT_EDGE", "SUPPORT_GAP", "SUPPORT_SINK", "SUPPORT_TILT",
+           "ResolvedState", "action_text", "dict_text", "held_order", "norm_action", "num_text",
+           "pose_gap", "pose_text", "report_order"]

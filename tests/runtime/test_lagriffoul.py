@@ -304,3 +304,29 @@ def test_smallest_instances_plan_and_validate(tmp_path, name):
                          capture_output=True, text=True, timeout=600)
     report = json.loads(val.stdout)
     assert val.returncode == 0 and report["valid"], val.stdout
+
+
+def test_a_block_on_a_trays_edge_rests_where_its_meaning_holds(worlds):
+    """`on-surface` holds within the language's 1 mm of a support region's edge, and
+    projections land there (Blocks World E's `putdown a red-tray`: the block's origin 0.09 mm
+    past the tray region's corner, which `tmpc validate` called "over no support", W830). The
+    validator's support check meets every region within that 1 mm, and not 3 mm past it."""
+    from types import SimpleNamespace
+
+    from tmpc.runtime.validate.core import Validator
+    world = _world(worlds, "blocks-D")
+    poses = {o.name: pose_matrix(o.pose) for o in world.scene.objects}
+    tray = poses["red-tray"]                  # its region: x -0.3..0, y 0..0.3, at its top
+
+    def released(dy):
+        T = _shift(tray, -0.3, -dy, 0.001)    # a's origin at the region's corner, dy past it
+        holds = _meaning_holds(world, "on-surface", ("a", "red-tray"), {**poses, "a": T})
+        v = Validator(world)
+        v.v, v.w, v.strict = [], [], False
+        v._check_support(SimpleNamespace(index=3, objects={**poses, "a": T}, held={}), "a")
+        return holds, [w.message for w in v.w]
+
+    assert released(0.0) == (True, [])
+    assert released(0.0005) == (True, [])
+    holds, warnings = released(0.003)
+    assert not holds and len(warnings) == 1 and "over no support" in warnings[0]
