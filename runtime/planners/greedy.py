@@ -42,15 +42,15 @@ planner first while its encoding is small: at most ``sat_clauses`` step clauses 
 shortest horizon not yet proven impossible. It gets ``sat_budget`` seconds a call, each horizon
 capped as ``horizon_cap`` says, and its plan is taken if it keeps the greedy planner's
 constraints (which are stronger: blocker evidence lasts until a blocker moves; the rules are
-clauses of the SAT planner too). Otherwise, or on a timeout, the greedy search
-answers; and only it once a SAT check overran its cap by more than ``stall`` seconds or
-three calls in a row ran out of their budget (on a loaded machine, a timing matter), except
-that a greedy search past ``greedy_budget`` expansions asks the SAT planner once more (and
-first again if it answers): under constraints its heuristic cannot see, the greedy search can
-run for minutes where the SAT planner answers in a second. On small problems the SAT planner's shortest
-plans are the better guide (Hanoi-3: solved in 46 s from SAT's plans, unsolved in 150 s from
-the greedy planner's plans of the same lengths); on large ones Z3's first check of a long
-horizon preprocesses without heeding its timeout.
+clauses of the SAT planner too). Otherwise, or on a timeout, the greedy search answers; and only
+it once a SAT check overran its cap by more than ``stall`` seconds or three calls in a row ran
+out of their budget (on a loaded machine, a timing matter), except that a greedy search past
+``greedy_budget`` expansions asks the SAT planner once more (and first again if it answers):
+under constraints its heuristic cannot see, the greedy search can run for minutes where the SAT
+planner answers in a second. On small problems the SAT planner's shortest plans are the better
+guide (Hanoi-3: solved in 46 s from SAT's plans, unsolved in 150 s from the greedy planner's
+plans of the same lengths); on large ones Z3's first check of a long horizon preprocesses
+without heeding its timeout.
 """
 
 from __future__ import annotations
