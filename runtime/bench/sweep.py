@@ -235,13 +235,16 @@ class Bench:
                 rec["warnings"] = []
         rec["validate_seconds"] = round(time.perf_counter() - t, 4)
         if not rec["valid"]:
-            kept = self._keep_plan(doc, rec)
+            kept = self._keep_plan(doc, rec, "invalid")
             self._bug(rec, prec, "INVALID PLAN: " + "; ".join(rec["violations"][:3])
                       + (f" (plan kept in {kept})" if kept else ""))
+        elif rec["warnings"]:          # valid, but the warning must stay checkable later
+            self._keep_plan(doc, rec, "warned")
 
-    def _keep_plan(self, doc: dict, rec: dict) -> str | None:
-        """An invalid plan is evidence: keep it beside the results (else in a temp directory)."""
-        name = f"invalid-{rec['problem']}-{rec['planner']}-{rec['seed']}.plan.json"
+    def _keep_plan(self, doc: dict, rec: dict, kind: str) -> str | None:
+        """An invalid plan, or a valid one with warnings, is evidence: keep it beside the
+        results (else in a temp directory)."""
+        name = f"{kind}-{rec['problem']}-{rec['planner']}-{rec['seed']}.plan.json"
         try:
             base = Path(self.args.output).parent if self.args.output else \
                 Path(tempfile.mkdtemp(prefix="tmpc-bench-"))

@@ -309,6 +309,36 @@ def test_a_crash_is_recorded_with_its_reproducer(clutter_problem_1, tmp_path, mo
     assert log["enums"]["status"][r["status"]] == "Crash"
 
 
+def test_a_valid_plan_with_a_warning_is_kept_to_check_again(clutter_problem_1, tmp_path,
+                                                            monkeypatch):
+    """A W830 leaves the plan valid, so the sweep succeeds, but the plan is kept beside the
+    results (`warned-...`) so that the warning can be checked again later; a plan without
+    one is not kept."""
+    from tmpc.runtime.bench import sweep as bc
+    from tmpc.runtime.cli.bench import run_bench
+    from tmpc.runtime.validate import validate_plan
+    monkeypatch.setattr(bc, "build_problem", lambda path, rec: clutter_problem_1)
+    warned = SimpleNamespace(text=lambda: "release at 2: `b1` over no support")
+
+    def with_warning(world, path):
+        report = validate_plan(world, path)
+        assert report.valid and not report.warnings
+        return SimpleNamespace(valid=True, violations=[], warnings=[warned])
+
+    monkeypatch.setattr(bc, "validate_plan", with_warning)
+    assert run_bench(_args(tmp_path, seeds=1, validate=True)) == 0
+    (run,) = json.loads((tmp_path / "r.json").read_text())["runs"]
+    assert run["valid"] is True and run["warnings"] == ["W830: " + warned.text()]
+    kept = tmp_path / "warned-clutter-unified-0.plan.json"
+    assert run["plan_file"] == str(kept)
+    assert json.loads(kept.read_text())["actions"] == run["actions"]
+    monkeypatch.setattr(bc, "validate_plan", validate_plan)
+    assert run_bench(_args(tmp_path, seeds=1, validate=True, output=str(tmp_path / "q.json"))) == 0
+    (run,) = json.loads((tmp_path / "q.json").read_text())["runs"]
+    assert run["warnings"] == [] and "plan_file" not in run
+    assert [p.name for p in tmp_path.glob("*.plan.json")] == [kept.name]
+
+
 def test_several_problems_one_log_each(clutter_problem_1, tmp_path, monkeypatch):
     from tmpc.runtime.bench import sweep as bc
     from tmpc.runtime.cli.bench import run_bench
