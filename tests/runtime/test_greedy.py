@@ -377,6 +377,49 @@ def test_failures_no_movable_object_explains_become_anchors_and_state_rules(bloc
     assert g.satisfies([pick_a, put_a, pick_d, put])
 
 
+def test_an_attempt_that_hit_only_the_robot_does_not_stand_in_a_state_rules_way(blocks_d):
+    """TaskPlans.fixed_only: a placement on `c` whose kept attempts all hit the table but one
+    that hit nothing but the robot itself learns its state rule (that attempt says nothing
+    about the movable objects); attempts that hit only the robot learn none."""
+    import dataclasses
+
+    import numpy as np
+
+    from tmpc.runtime.planners.optimal import OptimalOptions
+    from tmpc.runtime.planners.optimal.tasks import RULE_FAILURES, TaskPlans, Transition
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    atom = {gp.atom_name(i): i for i in range(len(gp.atoms))}
+    pick_d = gp.find_action("unstack", "d", "b", "l_gripper_tool_frame")
+    held = gp.apply(gp.init, pick_d)
+    holding = dataclasses.replace(mode, held={"d": ("l_gripper_tool_frame", np.eye(4))})
+    fixed = _configurations(p, {"fixed": lambda s: "table" in s and not s & {"a", "b", "c",
+                                                                               "d"}},
+                            holding)["fixed"]
+    own = next(q for q in p.uniform(np.random.default_rng(1), 20000)
+               if (pairs := p.collision.check(q, poses=holding.poses,
+                                              attached=holding.held).pairs)
+               and not any(x in mode.poses for a, b, _ in pairs for x in (a, b)))
+    tasks = TaskPlans(p, OptimalOptions(first_solution=True), {})
+    assert tasks.collisions(holding, own) == (set(), False)
+    assert tasks.collisions(holding, fixed) == (set(), True)
+    stack = gp.find_action("stack", "d", "c", "l_gripper_tool_frame")
+    for selves, learnt in ((1, True), (RULE_FAILURES, False)):
+        tr = Transition(held, stack, gp.apply(held, stack))
+        for k in range(RULE_FAILURES):
+            tr.record_failure(holding, own if k >= RULE_FAILURES - selves else fixed, True, 0.0)
+        counts: dict = {}
+        fresh = TaskPlans(p, OptimalOptions(first_solution=True), counts)
+        fresh.anchor_rules([pick_d], tr)
+        rules = fresh.task_planner().greedy.action_rules
+        if learnt:
+            assert rules == {stack.id: [(0, 1 << atom["(on-surface c red-tray)"])]}
+            assert counts["state_rules"] == 1
+        else:
+            assert not rules and "state_rules" not in counts
+
+
 def _modes_at_places(mode, block: str, first: int, n: int, held: dict | None) -> list:
     """``n`` copies of ``mode`` (ids from 1000 + ``first``) with ``block`` moved 5 cm along x
     per place from place ``first`` on, the robot holding ``held``: attempts at ``n`` places."""
