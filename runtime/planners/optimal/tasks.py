@@ -28,8 +28,8 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
   that chain (a *reach rule*: Blocks World F's left arm cannot stack on `a` on the red tray,
   wherever on it the right arm put `a`; 144 of a run's 397 task plans failed there before,
   each excluded alone);
-* every kept collided attempt hit the scene's fixed objects (the action's own objects
-  excepted, as for blockers): the placement is ruled out wherever the object it goes on stands
+* every kept collided attempt hit the scene's fixed objects or nothing but the robot (the
+  action's own objects excepted, as for blockers; one fixed hit at least): the placement is ruled out wherever the object it goes on stands
   on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
   tower of that height on the table, however it was built), until one of the movable objects
   some attempts hit as well moves.
