@@ -29,10 +29,11 @@ and put back: a kitchen's radish on its spot), false wherever they stand there a
   wherever on it the right arm put `a`; 144 of a run's 397 task plans failed there before,
   each excluded alone);
 * every kept collided attempt hit the scene's fixed objects or nothing but the robot (the
-  action's own objects excepted, as for blockers; one fixed hit at least): the placement is ruled out wherever the object it goes on stands
-  on the same stack (a *state rule* over its support chain: Blocks World's ceiling stops a
-  tower of that height on the table, however it was built), until one of the movable objects
-  some attempts hit as well moves.
+  action's own objects excepted, as for blockers; one fixed hit at least,
+  :meth:`TaskPlans.fixed_only`): the placement is ruled out wherever the object it goes on
+  stands on the same stack (a *state rule* over its support chain: Blocks World's ceiling
+  stops a tower of that height on the table, however it was built), until one of the
+  movable objects some attempts hit as well moves.
 
 A plan stuck at a transition one of these rules will rule out ends at once
 (:meth:`TaskPlans.hopeless`), not after its batch budget, unless its attempts came close
