@@ -128,6 +128,56 @@ def test_one_motion_each_planner(tabletop_run, planner):
     assert np.array_equal(again.path, res.path)
 
 
+def _shortcut_one_batch(p, mode, Q, rng, rounds=32, tries=16, resolution=0.05):
+    """The reference for :func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`: the same
+    draws, every new piece of every try checked in one batch."""
+    from tmpc.runtime.planners.decoupled.lazyprm import _points
+    for _ in range(rounds):
+        seg = np.array([p.cost(Q[n + 1:n + 2], Q[n])[0] for n in range(len(Q) - 1)])
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        T = np.sort(rng.uniform(0.0, cum[-1], (tries, 2)), axis=1)
+        ia, A = _points(p, Q, cum, seg, T[:, 0])
+        ib, B = _points(p, Q, cum, seg, T[:, 1])
+        gain = (T[:, 1] - T[:, 0]) - np.array([p.cost(b[None], a)[0] for a, b in zip(A, B)])
+        idx = np.nonzero((gain > 1e-9) & (ia < ib))[0]
+        if len(Q) < 3:
+            break
+        if not len(idx):
+            continue
+        ok = p.motions_valid(mode, np.vstack([Q[ia[idx]], A[idx], B[idx]]),
+                             np.vstack([A[idx], B[idx], Q[ib[idx] + 1]]), resolution,
+                             ends=True).reshape(3, -1).all(axis=0)
+        if ok.any():
+            k = idx[np.nonzero(ok)[0][np.argmax(gain[idx][ok])]]
+            Q = np.vstack([Q[:ia[k] + 1], A[k][None], B[k][None], Q[ib[k] + 1:]])
+    return Q
+
+
+def test_shortcuts_take_the_cut_a_one_batch_check_takes(tabletop_run):
+    """tmpc's shortcuts check the cuts first and the pieces along the path only where a cut
+    holds: on a jagged path (OMPL's RRT, twice) they take, round by round, the cuts that
+    checking every piece at once takes, and every segment of the result is collision-free."""
+    from tmpc.runtime.planners import plan_motion
+    from tmpc.runtime.planners.decoupled.lazyprm import shortcut
+    problem, _ = tabletop_run
+    mode = problem.initial
+    rng = np.random.default_rng(5)
+    Q = problem.uniform(rng, 400)
+    Q = Q[problem.valid_batch(mode, Q)]
+    ok = problem.motions_valid(mode, Q[:-1:2], Q[1::2], 0.05)
+    i = int(np.nonzero(~ok)[0][0])
+    there = plan_motion(problem, mode, Q[2 * i], Q[2 * i + 1], "ompl:RRT", 20.0, seed=3)
+    back = plan_motion(problem, mode, Q[2 * i + 1], Q[2 * i], "ompl:RRT", 20.0, seed=4)
+    path = np.vstack([there.path, back.path[1:], there.path[1:]])
+    for seed in range(3):
+        got = shortcut(problem, mode, path, np.random.default_rng(seed), rounds=12)
+        want = _shortcut_one_batch(problem, mode, path, np.random.default_rng(seed), rounds=12)
+        assert np.array_equal(got, want)
+        assert np.array_equal(got[0], path[0]) and np.array_equal(got[-1], path[-1])
+        assert len(got) < len(path)
+        assert problem.motions_valid(mode, got[:-1], got[1:], 0.05, ends=True).all()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("planner", ["ompl:RRTConnect", "tmpc"])
 def test_tmpc_motion_cli_on_tabletop(tabletop_run, tmp_path, planner):

@@ -7,7 +7,7 @@ collision-free uniform samples (one batched state check per batch), joins each v
 runs Dijkstra over the edges not yet known invalid; the edges of a found path are checked
 together (one batched motion check) and the search repeats until a path's edges all hold, or
 a new batch is drawn. :func:`shortcut` then tries random shortcuts between points anywhere
-along the path, a round of them per batched check. Deterministic from the generator it is given.
+along the path, a round of them per two batched checks. Deterministic from the generator it is given.
 """
 
 from __future__ import annotations
@@ -51,8 +51,11 @@ def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Gener
              rounds: int = 32, tries: int = 16, resolution: float = 0.05) -> np.ndarray:
     """``Q`` with random shortcuts taken between points anywhere along it (not only its
     vertices): per round, ``tries`` pairs of points drawn by length along the path, the three
-    new pieces of each (to the first point, between them, from the second) checked in one
-    batch, and the valid pair saving the most length taken. Ends kept."""
+    new pieces of each (to the first point, between them, from the second) checked, and the
+    valid pair saving the most length taken. Ends kept. The cuts between the points go first,
+    in one batch; the pieces along the path only where the cut holds, in a second: most cuts
+    collide, and the pieces, on a path already checked, mostly hold and cost every state
+    (Sort Clutter v0's shortcuts: 6.2 s against 7.4 s checked in one batch, the same path)."""
     Q = np.asarray(Q, float)
     for _ in range(rounds):
         if len(Q) < 3:             # a straight motion: nothing to cut
@@ -69,9 +72,12 @@ def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Gener
         if not keep.any():
             continue
         idx = np.nonzero(keep)[0]
-        ok = p.motions_valid(mode, np.vstack([Q[ia[idx]], A[idx], B[idx]]),
-                             np.vstack([A[idx], B[idx], Q[ib[idx] + 1]]), resolution,
-                             ends=True).reshape(3, -1).all(axis=0)
+        idx = idx[p.motions_valid(mode, A[idx], B[idx], resolution, ends=True)]
+        if not len(idx):
+            continue
+        ok = p.motions_valid(mode, np.vstack([Q[ia[idx]], B[idx]]),
+                             np.vstack([A[idx], Q[ib[idx] + 1]]), resolution).reshape(2, -1)
+        ok = ok.all(axis=0)
         if not ok.any():
             continue
         k = idx[np.nonzero(ok)[0][np.argmax(gain[idx][ok])]]
