@@ -34,7 +34,7 @@ from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, prepare_kernel
+from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, floor_bounds, prepare_kernel
 from tmpc.runtime.evaluate import Evaluator, Obj
 from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
@@ -191,6 +191,7 @@ class PlanningProblem:
         self.evidence = Evidence()
         self.evidence.reached(self.ground.init)
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
+        self.floor = None
         self.wraps = np.asarray(self.model.wraps, bool)
         self._wrap_columns = np.flatnonzero(self.wraps)
         self._projectors: dict[str, tuple] = {}
@@ -205,6 +206,10 @@ class PlanningProblem:
             self.start_warm_up(warm_rng)
         t = time.perf_counter()
         self.collision = collision_world(world, self.compiled, self.tolerance)
+        #: a mobile base's reachable floor, ``(xlo, xhi, ylo, yhi)`` (None: all the bounds);
+        #: the base's bounds are narrowed to it (:meth:`narrow_to_floor`)
+        self.floor: tuple[float, float, float, float] | None = None
+        self.narrow_to_floor()
         self.timers.compile += time.perf_counter() - t
 
     def restart(self, state: WorldState | None = None, sym: int | None = None) -> None:
@@ -220,6 +225,22 @@ class PlanningProblem:
         self.evidence = Evidence()
         self.evidence.reached(self.ground.init)
         self.timers = Timers()
+        self.narrow_to_floor()
+
+    def narrow_to_floor(self) -> None:
+        """A mobile base's x and y bounds narrowed to the floor it can reach from
+        :attr:`q0` (:func:`tmpc.runtime.collision.floor.floor_bounds`: inside a wall around
+        the scene); the model's bounds where nothing encloses it, and for a fixed base.
+        Projections whose base lands off that floor do not hold (:meth:`project_raw`)."""
+        lower, upper = np.array(self.model.lower, float), np.array(self.model.upper, float)
+        self.floor = floor_bounds(self.collision, self.q0, lower, upper) \
+            if self.model.mobile_base else None
+        if self.floor is not None:
+            xlo, xhi, ylo, yhi = self.floor
+            lower[:2] = np.maximum(lower[:2], [xlo, ylo])
+            upper[:2] = np.minimum(upper[:2], [xhi, yhi])
+            self.floor = (float(lower[0]), float(upper[0]), float(lower[1]), float(upper[1]))
+        self.lower, self.upper = lower, upper
 
     def with_start_symbols(self, ground, state: WorldState):
         """``ground`` with its geometric symbols true where they hold at ``state``'s object
@@ -429,6 +450,11 @@ class PlanningProblem:
         if not out[0]:
             return (np.zeros((0, len(self.lower))), np.zeros(0, bool), np.zeros(0))
         result = tuple(np.concatenate(acc) for acc in out)
+        if self.floor is not None:           # a base off its floor: no motion gets there
+            xlo, xhi, ylo, yhi = self.floor
+            Q = result[0]
+            result[1][(Q[:, 0] < xlo) | (Q[:, 0] > xhi) | (Q[:, 1] < ylo) | (Q[:, 1] > yhi)] \
+                = False
         if iterations != 0:
             self.evidence.projected(mode, action, *result)
         return result

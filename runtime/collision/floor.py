@@ -1,0 +1,141 @@
+"""Where a mobile base can drive: the part of the floor connected to where it starts.
+
+A scene's bounds say where a base may be; they do not say that it can get there. Sort Clutter's
+arena is a wall 0.4 m high at 2.75 m around the tables, and the bounds (the objects' extent plus
+2 m, W505) reach 4.3 m: from outside the wall an arm reaches over it to a table, so the
+projections put bases there, and no motion leads out of the arena to them (23 failed motions in
+one run, each its whole budget; docs/planning.md, "The base's floor").
+
+:func:`floor_bounds` finds the floor the base can reach: on a grid of cells over the bounds, a
+cell is blocked where a vertical cylinder inside the base (the largest circle about the base's
+origin within its widest geometry's footprint, less half a cell's diagonal, over the middle half
+of that geometry's height) collides with the fixed scene; the free cells joined to the start's
+(sides shared) are the floor. A base that stands free somewhere has that cylinder free about
+every point within half a diagonal of it, so every cell its path crosses is free: the floor
+holds every position the base can drive to (the base's solid holds the cylinder: a convex
+footprint, as a PR2's). The floor's bounding box, half a cell wider, is returned; the planners
+then sample, project and plan within it (:class:`tmpc.runtime.problem.PlanningProblem`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tmpc.runtime.collision.geometry import rigid_groups
+
+#: the grid's cell (metres), at most; a grid has at most this many cells a side
+CELL = 0.1
+MAX_SIDE = 400
+
+
+def floor_bounds(world, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
+                 ) -> tuple[float, float, float, float] | None:
+    """``(xlo, xhi, ylo, yhi)``: the bounding box of the floor the base at ``q0`` reaches,
+    within the bounds ``lower``/``upper`` (the first two coordinates: the base's x and y), or
+    None when it is all of them (or the base has no geometry to test, or its start cell is
+    blocked). ``world``: a :class:`tmpc.runtime.collision.CollisionWorld` of a mobile base."""
+    import fcl
+
+    probe = base_probe(world, q0)
+    if probe is None or not len(world.parts.static):
+        return None
+    radius, zlo, zhi = probe
+    (xlo, ylo), (xhi, yhi) = lower[:2], upper[:2]
+    cell = max(CELL, (xhi - xlo) / MAX_SIDE, (yhi - ylo) / MAX_SIDE)
+    nx, ny = int(np.ceil((xhi - xlo) / cell)), int(np.ceil((yhi - ylo) / cell))
+    r = radius - cell / np.sqrt(2.0)
+    if r <= 0.0 or nx < 3 or ny < 3:
+        return None
+    xs = xlo + (np.arange(nx) + 0.5) * (xhi - xlo) / nx
+    ys = ylo + (np.arange(ny) + 0.5) * (yhi - ylo) / ny
+    start = (int(np.clip((q0[0] - xlo) / (xhi - xlo) * nx, 0, nx - 1)),
+             int(np.clip((q0[1] - ylo) / (yhi - ylo) * ny, 0, ny - 1)))
+    cyl = fcl.CollisionObject(fcl.Cylinder(r, zhi - zlo))
+    zmid = 0.5 * (zlo + zhi)
+    manager = world.exact._static_mgr
+    blocked = np.zeros((nx, ny), bool)
+    eye = np.eye(3)
+    for i, x in enumerate(xs):
+        for j, y in enumerate(ys):
+            cyl.setTransform(fcl.Transform(eye, np.array([x, y, zmid])))
+            data = fcl.CollisionData(request=fcl.CollisionRequest())
+            manager.collide(cyl, data, fcl.defaultCollisionCallback)
+            blocked[i, j] = data.result.is_collision
+    if blocked[start]:
+        return None
+    seen = _component(blocked, start)
+    if seen[0, :].any() or seen[-1, :].any() or seen[:, 0].any() or seen[:, -1].any():
+        return None                          # the floor reaches the bounds: nothing to narrow
+    ii, jj = np.nonzero(seen)
+    dx, dy = (xhi - xlo) / nx, (yhi - ylo) / ny
+    return (float(xs[ii.min()] - dx), float(xs[ii.max()] + dx),
+            float(ys[jj.min()] - dy), float(ys[jj.max()] + dy))
+
+
+def base_probe(world, q0: np.ndarray) -> tuple[float, float, float] | None:
+    """``(radius, zlo, zhi)`` of the cylinder inside the base (module docstring) with the base
+    at the origin, or None: the largest circle about the base's origin inside the footprint (the
+    convex hull of the vertices, seen from above) of one geometry rigid with the base, the one
+    whose circle is widest, and the middle half of that geometry's height."""
+    parts, model = world.parts, world.model
+    groups = rigid_groups(model.tree)
+    root = groups[model.tree.root]
+    q = np.array(q0, float)
+    q[:3] = 0.0
+    R, p = world.kinematics(q[None])
+    best = None
+    for g, geom in enumerate(parts.geoms):
+        body = parts.bodies[geom.body]
+        if body.kind != "link" or groups.get(body.name) != root:
+            continue
+        f = model.frame(body.name)
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R[f, :, :, 0], p[f, :, 0]
+        V = _vertices(geom)
+        W = (T @ geom.T_body_geom @ np.c_[V, np.ones(len(V))].T).T[:, :3]
+        radius = _inscribed(W[:, :2])
+        if radius > 0 and (best is None or radius > best[0]):
+            zlo, zhi = W[:, 2].min(), W[:, 2].max()
+            quarter = 0.25 * (zhi - zlo)
+            best = (radius, zlo + quarter, zhi - quarter)
+    if best is None or best[2] - best[1] <= 1e-6:
+        return None
+    return best
+
+
+def _vertices(geom) -> np.ndarray:
+    """A geometry's points in its frame: a mesh's vertices, else its box's corners (a box's
+    footprint; a cylinder's or a sphere's square has the same inscribed circle)."""
+    if geom.mesh is not None:
+        return np.asarray(geom.mesh.vertices, float)
+    c, h = np.asarray(geom.aabb_center, float), np.asarray(geom.aabb_half, float)
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    return c + signs * h
+
+
+def _inscribed(P: np.ndarray) -> float:
+    """The distance from the origin to the boundary of the convex hull of the 2-D points P
+    (0 when the origin is not inside it)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(P)
+    except (QhullError, ValueError):
+        return 0.0
+    # each facet: normal . x + offset <= 0 inside; the origin's distance is -offset
+    return float(max(0.0, (-hull.equations[:, -1]).min()))
+
+
+def _component(blocked: np.ndarray, start: tuple[int, int]) -> np.ndarray:
+    """The free cells joined to ``start`` by shared sides."""
+    seen = np.zeros_like(blocked)
+    seen[start] = True
+    todo = [start]
+    nx, ny = blocked.shape
+    while todo:
+        i, j = todo.pop()
+        for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+            if 0 <= a < nx and 0 <= b < ny and not blocked[a, b] and not seen[a, b]:
+                seen[a, b] = True
+                todo.append((a, b))
+    return seen
