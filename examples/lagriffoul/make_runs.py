@@ -23,6 +23,11 @@ PLANNER = {
     # 28 steps and more: the decoupled planner follows a plan step by step, where the optimal
     # one samples every mode it reached (docs/benchmarks.md)
     "clutter": ['name = "decoupled"'],
+    # the kitchens' 26-34 steps too, side by side with the optimal planner (10/10 each;
+    # docs/benchmarks-log.md, nineteenth session): the full kitchen median 44.6 s against
+    # 78.3 s; without radishes 14.7 s against 14.2 s, every one within 30 s against 8 of 10
+    "kitchen": ['name = "decoupled"'],
+    "kitchen-noradish": ['name = "decoupled"'],
     # most of Blocks E's task plans fail at a transition: the decoupled planner tries a plan's
     # transitions before its motions (lazy_motions), the optimal one samples every mode it
     # reached (docs/benchmarks.md: 10/10 against 8/10); a failed step sends the search back

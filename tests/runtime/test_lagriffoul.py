@@ -292,7 +292,7 @@ def test_blocks_c_is_unsolvable_as_published(worlds):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["blocks-D", "hanoi-3", "nonmono", "kitchen-noradish",
-                                  "clutter"])   # clutter: its manifest's decoupled planner
+                                  "clutter"])   # clutter, kitchen-noradish: the decoupled planner
 def test_smallest_instances_plan_and_validate(tmp_path, name):
     out = tmp_path / "plan.json"
     run = subprocess.run([sys.executable, "-m", "tmpc.runtime.cli", "run",
