@@ -85,6 +85,13 @@ class ExactChecker:
             return 0.0
         return abs(res.contacts[0].penetration_depth)
 
+    def hits_static(self, obj) -> bool:
+        """Does the fcl object ``obj`` (its transform set) touch any static geometry?"""
+        import fcl
+        data = fcl.CollisionData(request=fcl.CollisionRequest())
+        self._static_mgr.collide(obj, data, fcl.defaultCollisionCallback)
+        return bool(data.result.is_collision)
+
     def counts(self, depth: float | None) -> bool:
         return depth is not None and depth > self.tolerance + DEPTH_EPS
 

@@ -52,15 +52,12 @@ def floor_bounds(world, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
              int(np.clip((q0[1] - ylo) / (yhi - ylo) * ny, 0, ny - 1)))
     cyl = fcl.CollisionObject(fcl.Cylinder(r, zhi - zlo))
     zmid = 0.5 * (zlo + zhi)
-    manager = world.exact._static_mgr
     blocked = np.zeros((nx, ny), bool)
     eye = np.eye(3)
     for i, x in enumerate(xs):
         for j, y in enumerate(ys):
             cyl.setTransform(fcl.Transform(eye, np.array([x, y, zmid])))
-            data = fcl.CollisionData(request=fcl.CollisionRequest())
-            manager.collide(cyl, data, fcl.defaultCollisionCallback)
-            blocked[i, j] = data.result.is_collision
+            blocked[i, j] = world.exact.hits_static(cyl)
     if blocked[start]:
         return None
     seen = _component(blocked, start)

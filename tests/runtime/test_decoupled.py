@@ -131,13 +131,13 @@ def test_one_motion_each_planner(tabletop_run, planner):
 def _shortcut_one_batch(p, mode, Q, rng, rounds=32, tries=16, resolution=0.05):
     """The reference for :func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`: the same
     draws, every new piece of every try checked in one batch."""
-    from tmpc.runtime.planners.decoupled.lazyprm import _points
+    from tmpc.runtime.planners.decoupled.lazyprm import points_along
     for _ in range(rounds):
         seg = np.array([p.cost(Q[n + 1:n + 2], Q[n])[0] for n in range(len(Q) - 1)])
         cum = np.concatenate([[0.0], np.cumsum(seg)])
         T = np.sort(rng.uniform(0.0, cum[-1], (tries, 2)), axis=1)
-        ia, A = _points(p, Q, cum, seg, T[:, 0])
-        ib, B = _points(p, Q, cum, seg, T[:, 1])
+        ia, A = points_along(p, Q, cum, seg, T[:, 0])
+        ib, B = points_along(p, Q, cum, seg, T[:, 1])
         gain = (T[:, 1] - T[:, 0]) - np.array([p.cost(b[None], a)[0] for a, b in zip(A, B)])
         idx = np.nonzero((gain > 1e-9) & (ia < ib))[0]
         if len(Q) < 3:

@@ -7,7 +7,8 @@ collision-free uniform samples (one batched state check per batch), joins each v
 runs Dijkstra over the edges not yet known invalid; the edges of a found path are checked
 together (one batched motion check) and the search repeats until a path's edges all hold, or
 a new batch is drawn. :func:`shortcut` then tries random shortcuts between points anywhere
-along the path, a round of them per two batched checks. Deterministic from the generator it is given.
+along the path, a round of them per two batched checks. Deterministic from the generator it is
+given.
 """
 
 from __future__ import annotations
@@ -65,8 +66,8 @@ def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Gener
         if cum[-1] <= 1e-12:
             break
         T = np.sort(rng.uniform(0.0, cum[-1], (tries, 2)), axis=1)
-        ia, A = _points(p, Q, cum, seg, T[:, 0])
-        ib, B = _points(p, Q, cum, seg, T[:, 1])
+        ia, A = points_along(p, Q, cum, seg, T[:, 0])
+        ib, B = points_along(p, Q, cum, seg, T[:, 1])
         gain = (T[:, 1] - T[:, 0]) - np.array([p.cost(b[None], a)[0] for a, b in zip(A, B)])
         keep = (gain > 1e-9) & (ia < ib)
         if not keep.any():
@@ -85,8 +86,8 @@ def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Gener
     return Q
 
 
-def _points(p: PlanningProblem, Q: np.ndarray, cum: np.ndarray, seg: np.ndarray,
-            t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def points_along(p: PlanningProblem, Q: np.ndarray, cum: np.ndarray, seg: np.ndarray,
+                 t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The segment index and the point at length ``t`` along ``Q`` (per entry of ``t``)."""
     i = np.clip(np.searchsorted(cum, t, side="right") - 1, 0, len(Q) - 2)
     frac = np.where(seg[i] > 0, (t - cum[i]) / np.where(seg[i] > 0, seg[i], 1.0), 0.0)
