@@ -191,7 +191,9 @@ class PlanningProblem:
         self.evidence = Evidence()
         self.evidence.reached(self.ground.init)
         self.lower, self.upper = np.asarray(self.model.lower), np.asarray(self.model.upper)
-        self.floor = None
+        #: a mobile base's reachable floor, ``(xlo, xhi, ylo, yhi)`` (None: all the bounds);
+        #: the base's bounds are narrowed to it (:meth:`narrow_to_floor`)
+        self.floor: tuple[float, float, float, float] | None = None
         self.wraps = np.asarray(self.model.wraps, bool)
         self._wrap_columns = np.flatnonzero(self.wraps)
         self._projectors: dict[str, tuple] = {}
@@ -206,9 +208,6 @@ class PlanningProblem:
             self.start_warm_up(warm_rng)
         t = time.perf_counter()
         self.collision = collision_world(world, self.compiled, self.tolerance)
-        #: a mobile base's reachable floor, ``(xlo, xhi, ylo, yhi)`` (None: all the bounds);
-        #: the base's bounds are narrowed to it (:meth:`narrow_to_floor`)
-        self.floor: tuple[float, float, float, float] | None = None
         self.narrow_to_floor()
         self.timers.compile += time.perf_counter() - t
 

@@ -54,10 +54,15 @@ def floor_bounds(world, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
     zmid = 0.5 * (zlo + zhi)
     blocked = np.zeros((nx, ny), bool)
     eye = np.eye(3)
-    for i, x in enumerate(xs):
-        for j, y in enumerate(ys):
-            cyl.setTransform(fcl.Transform(eye, np.array([x, y, zmid])))
-            blocked[i, j] = world.exact.hits_static(cyl)
+    # only cells whose cylinder's box meets a static geometry's box need fcl
+    near = np.zeros((nx, ny), bool)
+    for lo, hi in static_boxes(world):
+        if lo[2] <= zhi and hi[2] >= zlo:
+            near |= ((xs[:, None] >= lo[0] - r) & (xs[:, None] <= hi[0] + r)
+                     & (ys[None, :] >= lo[1] - r) & (ys[None, :] <= hi[1] + r))
+    for i, j in zip(*np.nonzero(near)):
+        cyl.setTransform(fcl.Transform(eye, np.array([xs[i], ys[j], zmid])))
+        blocked[i, j] = world.exact.hits_static(cyl)
     if blocked[start]:
         return None
     seen = _component(blocked, start)
@@ -67,6 +72,21 @@ def floor_bounds(world, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
     dx, dy = (xhi - xlo) / nx, (yhi - ylo) / ny
     return (float(xs[ii.min()] - dx), float(xs[ii.max()] + dx),
             float(ys[jj.min()] - dy), float(ys[jj.max()] + dy))
+
+
+def static_boxes(world) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The world axis-aligned box ``(lo, hi)`` of each static geometry, where the scene puts
+    it (the corners of its own box, moved)."""
+    parts = world.parts
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    out = []
+    for g in parts.static:
+        geom = parts.geoms[g]
+        T = parts.default_place[geom.body].T @ geom.T_body_geom
+        corners = np.asarray(geom.aabb_center, float) + signs * np.asarray(geom.aabb_half, float)
+        W = corners @ T[:3, :3].T + T[:3, 3]
+        out.append((W.min(0), W.max(0)))
+    return out
 
 
 def base_probe(world, q0: np.ndarray) -> tuple[float, float, float] | None:
