@@ -110,7 +110,7 @@ def base_probe(world, q0: np.ndarray) -> tuple[float, float, float] | None:
         T[:3, :3], T[:3, 3] = R[f, :, :, 0], p[f, :, 0]
         V = _vertices(geom)
         W = (T @ geom.T_body_geom @ np.c_[V, np.ones(len(V))].T).T[:, :3]
-        radius = _inscribed(W[:, :2])
+        radius = inscribed_radius(W[:, :2])
         if radius > 0 and (best is None or radius > best[0]):
             zlo, zhi = W[:, 2].min(), W[:, 2].max()
             quarter = 0.25 * (zhi - zlo)
@@ -130,17 +130,35 @@ def _vertices(geom) -> np.ndarray:
     return c + signs * h
 
 
-def _inscribed(P: np.ndarray) -> float:
+def inscribed_radius(P: np.ndarray) -> float:
     """The distance from the origin to the boundary of the convex hull of the 2-D points P
-    (0 when the origin is not inside it)."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        hull = ConvexHull(P)
-    except (QhullError, ValueError):
+    (0 when the origin is not inside it). The hull by Andrew's monotone chain (scipy's qhull
+    would cost its import, 0.3 s, at every mobile base's set-up)."""
+    pts = sorted(set(map(tuple, np.round(np.asarray(P, float), 12))))
+    if len(pts) < 3:
         return 0.0
-    # each facet: normal . x + offset <= 0 inside; the origin's distance is -offset
-    return float(max(0.0, (-hull.equations[:, -1]).min()))
+
+    def half(points):
+        out: list = []
+        for q in points:
+            while len(out) >= 2 and _cross(out[-2], out[-1], q) <= 0:
+                out.pop()
+            out.append(q)
+        return out[:-1]
+
+    hull = np.array(half(pts) + half(pts[::-1]))          # counter-clockwise
+    if len(hull) < 3:
+        return 0.0
+    a, b = hull, np.roll(hull, -1, axis=0)
+    edge = b - a
+    length = np.hypot(edge[:, 0], edge[:, 1])
+    # the origin's signed distance to each edge's line, positive on the inner side
+    inside = (edge[:, 0] * -a[:, 1] - edge[:, 1] * -a[:, 0]) / np.where(length > 0, length, 1)
+    return float(max(0.0, inside[length > 0].min()))
+
+
+def _cross(o, a, b) -> float:
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
 
 def _component(blocked: np.ndarray, start: tuple[int, int]) -> np.ndarray:

@@ -85,4 +85,21 @@ def test_the_problem_narrows_the_base_bounds_and_only_them(clutter):
     assert stub.upper[0] - stub.lower[0] < 5.5 < model.upper[0] - model.lower[0]
     assert np.array_equal(stub.lower[2:], model.lower[2:])
     assert np.array_equal(stub.upper[2:], model.upper[2:])
-    assert np.all(stub.lower[:2] <= model.default_q[:2]) and np.all(model.default_q[:2] <= stub.upper[:2])
+    q0 = model.default_q[:2]
+    assert np.all(stub.lower[:2] <= q0) and np.all(q0 <= stub.upper[:2])
+
+
+def test_the_inscribed_radius_is_qhulls():
+    """The footprint's circle about the base's origin (a hull by monotone chain, no scipy at
+    set-up) against scipy's qhull on random point sets; 0 where the origin is outside."""
+    from scipy.spatial import ConvexHull
+
+    from tmpc.runtime.collision.floor import inscribed_radius
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        P = rng.normal(size=(int(rng.integers(3, 60)), 2)) + rng.normal(scale=0.5, size=2)
+        want = max(0.0, float((-ConvexHull(P).equations[:, -1]).min()))
+        assert inscribed_radius(P) == pytest.approx(want, abs=1e-9)
+    square = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [0, 0.5]], float)
+    assert inscribed_radius(square) == 1.0 and inscribed_radius(square + 3) == 0.0
+    assert inscribed_radius(np.array([[0, 0], [1, 1], [2, 2]], float)) == 0.0
