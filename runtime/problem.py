@@ -34,7 +34,7 @@ from tmpc.compiler.robot import Frames
 from tmpc.compiler.state import WorldState, grasp, initial_state, release
 from tmpc.lang.diagnostics import InputError, error
 from tmpc.lang.world import collision_tolerance
-from tmpc.runtime.collision import CHUNK, PAD_SIZES, collision_world, floor_bounds, prepare_kernel
+from tmpc.runtime.collision import CHUNK, PAD_SIZES, FloorMap, collision_world, prepare_kernel
 from tmpc.runtime.evaluate import Evaluator, Obj
 from tmpc.runtime.explain import Evidence
 from tmpc.runtime.setup_checks import SetupChecks
@@ -194,6 +194,9 @@ class PlanningProblem:
         #: a mobile base's reachable floor, ``(xlo, xhi, ylo, yhi)`` (None: all the bounds);
         #: the base's bounds are narrowed to it (:meth:`narrow_to_floor`)
         self.floor: tuple[float, float, float, float] | None = None
+        #: its grid, made once (:class:`tmpc.runtime.collision.floor.FloorMap`; a replan looks
+        #: its start's region up)
+        self.floor_map: FloorMap | None = None
         self.wraps = np.asarray(self.model.wraps, bool)
         self._wrap_columns = np.flatnonzero(self.wraps)
         self._projectors: dict[str, tuple] = {}
@@ -228,17 +231,16 @@ class PlanningProblem:
 
     def narrow_to_floor(self) -> None:
         """A mobile base's x and y bounds narrowed to the floor it can reach from
-        :attr:`q0` (:func:`tmpc.runtime.collision.floor.floor_bounds`: inside a wall around
-        the scene); the model's bounds where nothing encloses it, and for a fixed base.
+        :attr:`q0` (:class:`tmpc.runtime.collision.floor.FloorMap`, made once: inside a wall
+        around the scene); the model's bounds where nothing encloses it, and for a fixed base.
         Projections whose base lands off that floor do not hold (:meth:`project_raw`)."""
+        if self.floor_map is None and self.model.mobile_base:     # once: a replan looks up
+            self.floor_map = FloorMap(self.collision, self.model.lower, self.model.upper)
+        self.floor = None if self.floor_map is None else self.floor_map.bounds(self.q0)
         lower, upper = np.array(self.model.lower, float), np.array(self.model.upper, float)
-        self.floor = floor_bounds(self.collision, self.q0, lower, upper) \
-            if self.model.mobile_base else None
-        if self.floor is not None:
-            xlo, xhi, ylo, yhi = self.floor
-            lower[:2] = np.maximum(lower[:2], [xlo, ylo])
-            upper[:2] = np.minimum(upper[:2], [xhi, yhi])
-            self.floor = (float(lower[0]), float(upper[0]), float(lower[1]), float(upper[1]))
+        if self.floor is not None:           # within the model's bounds (FloorMap.boxes)
+            lower[:2] = self.floor[0], self.floor[2]
+            upper[:2] = self.floor[1], self.floor[3]
         self.lower, self.upper = lower, upper
 
     def with_start_symbols(self, ground, state: WorldState):

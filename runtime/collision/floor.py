@@ -15,6 +15,8 @@ every point within half a diagonal of it, so every cell its path crosses is free
 holds every position the base can drive to (the base's solid holds the cylinder: a convex
 footprint, as a PR2's). The floor's bounding box, half a cell wider, is returned; the planners
 then sample, project and plan within it (:class:`tmpc.runtime.problem.PlanningProblem`).
+:class:`FloorMap` makes the grid once and fills a region the first time a start stands in it;
+a replan from another start looks its region up.
 """
 
 from __future__ import annotations
@@ -33,63 +35,87 @@ def floor_bounds(world, q0: np.ndarray, lower: np.ndarray, upper: np.ndarray
     """``(xlo, xhi, ylo, yhi)``: the bounding box of the floor the base at ``q0`` reaches,
     within the bounds ``lower``/``upper`` (the first two coordinates: the base's x and y), or
     None when it is all of them (or the base has no geometry to test, or its start cell is
-    blocked). ``world``: a :class:`tmpc.runtime.collision.CollisionWorld` of a mobile base."""
-    import fcl
+    blocked). ``world``: a :class:`tmpc.runtime.collision.CollisionWorld` of a mobile base.
+    One call of :class:`FloorMap`."""
+    return FloorMap(world, lower, upper).bounds(q0)
 
-    probe = base_probe(world, q0)
-    if probe is None or not len(world.parts.static):
-        return None
-    radius, zlo, zhi = probe
-    (xlo, ylo), (xhi, yhi) = lower[:2], upper[:2]
-    cell = max(CELL, (xhi - xlo) / MAX_SIDE, (yhi - ylo) / MAX_SIDE)
-    nx, ny = int(np.ceil((xhi - xlo) / cell)), int(np.ceil((yhi - ylo) / cell))
-    r = radius - cell / np.sqrt(2.0)
-    if r <= 0.0 or nx < 3 or ny < 3:
-        return None
-    xs = xlo + (np.arange(nx) + 0.5) * (xhi - xlo) / nx
-    ys = ylo + (np.arange(ny) + 0.5) * (yhi - ylo) / ny
-    start = (int(np.clip((q0[0] - xlo) / (xhi - xlo) * nx, 0, nx - 1)),
-             int(np.clip((q0[1] - ylo) / (yhi - ylo) * ny, 0, ny - 1)))
-    cyl = fcl.CollisionObject(fcl.Cylinder(r, zhi - zlo))
-    zmid = 0.5 * (zlo + zhi)
-    blocked = np.zeros((nx, ny), bool)
-    eye = np.eye(3)
-    # only cells whose cylinder's box meets a static geometry's box need fcl
-    near = np.zeros((nx, ny), bool)
-    for lo, hi in static_boxes(world):
-        if lo[2] <= zhi and hi[2] >= zlo:
-            near |= ((xs[:, None] >= lo[0] - r) & (xs[:, None] <= hi[0] + r)
-                     & (ys[None, :] >= lo[1] - r) & (ys[None, :] <= hi[1] + r))
-    for i, j in zip(*np.nonzero(near)):
-        cyl.setTransform(fcl.Transform(eye, np.array([xs[i], ys[j], zmid])))
-        blocked[i, j] = world.exact.hits_static(cyl)
-    if blocked[start]:
-        return None
-    seen = _component(blocked, start)
-    if seen[0, :].any() or seen[-1, :].any() or seen[:, 0].any() or seen[:, -1].any():
-        return None                          # the floor reaches the bounds: nothing to narrow
-    ii, jj = np.nonzero(seen)
-    dx, dy = (xhi - xlo) / nx, (yhi - ylo) / ny
-    return (float(xs[ii.min()] - dx), float(xs[ii.max()] + dx),
-            float(ys[jj.min()] - dy), float(ys[jj.max()] + dy))
+
+class FloorMap:
+    """The grid of a base's floor within ``lower``/``upper``, made once: its blocked cells
+    (module docstring), and the free regions joined by shared sides with their bounding boxes,
+    each filled the first time a start stands in it; a replan from a start in a region already
+    filled is a look-up."""
+
+    def __init__(self, world, lower: np.ndarray, upper: np.ndarray):
+        import fcl
+
+        self.labels: np.ndarray | None = None
+        probe = base_probe(world)
+        if probe is None or not len(world.parts.static):
+            return
+        radius, zlo, zhi = probe
+        (xlo, ylo), (xhi, yhi) = lower[:2], upper[:2]
+        cell = max(CELL, (xhi - xlo) / MAX_SIDE, (yhi - ylo) / MAX_SIDE)
+        nx, ny = int(np.ceil((xhi - xlo) / cell)), int(np.ceil((yhi - ylo) / cell))
+        r = radius - cell / np.sqrt(2.0)
+        if r <= 0.0 or nx < 3 or ny < 3:
+            return
+        self.lo, self.span, self.n = np.array([xlo, ylo]), np.array([xhi - xlo, yhi - ylo]), \
+            np.array([nx, ny])
+        xs = xlo + (np.arange(nx) + 0.5) * (xhi - xlo) / nx
+        ys = ylo + (np.arange(ny) + 0.5) * (yhi - ylo) / ny
+        cyl = fcl.CollisionObject(fcl.Cylinder(r, zhi - zlo))
+        zmid = 0.5 * (zlo + zhi)
+        blocked = np.zeros((nx, ny), bool)
+        eye = np.eye(3)
+        # only cells whose cylinder's box meets a static geometry's box need fcl
+        near = np.zeros((nx, ny), bool)
+        for lo, hi in static_boxes(world):
+            if lo[2] <= zhi and hi[2] >= zlo:
+                near |= ((xs[:, None] >= lo[0] - r) & (xs[:, None] <= hi[0] + r)
+                         & (ys[None, :] >= lo[1] - r) & (ys[None, :] <= hi[1] + r))
+        for i, j in zip(*np.nonzero(near)):
+            cyl.setTransform(fcl.Transform(eye, np.array([xs[i], ys[j], zmid])))
+            blocked[i, j] = world.exact.hits_static(cyl)
+        #: each cell's region (-2: blocked, -1: not visited yet), found as starts need them
+        self.labels = np.where(blocked, -2, -1)
+        self.xs, self.ys = xs, ys
+        #: per region: its box, half a cell wider than its cells, or None where it reaches
+        #: the bounds' edge (nothing to narrow)
+        self.boxes: list = []
+
+    def bounds(self, q0: np.ndarray) -> tuple[float, float, float, float] | None:
+        """The box of the region the base at ``q0`` stands in (None: see
+        :func:`floor_bounds`); a region is filled the first time a start stands in it."""
+        if self.labels is None:
+            return None
+        i, j = np.clip(((np.asarray(q0[:2], float) - self.lo) / self.span * self.n)
+                       .astype(int), 0, self.n - 1)
+        if self.labels[i, j] == -1:
+            ii, jj = _fill(self.labels, (i, j), len(self.boxes))
+            (nx, ny), (dx, dy) = self.n, self.span / self.n
+            edge = ii.min() == 0 or jj.min() == 0 or ii.max() == nx - 1 or jj.max() == ny - 1
+            self.boxes.append(None if edge else (
+                float(self.xs[ii.min()] - dx), float(self.xs[ii.max()] + dx),
+                float(self.ys[jj.min()] - dy), float(self.ys[jj.max()] + dy)))
+        label = self.labels[i, j]
+        return None if label < 0 else self.boxes[label]
 
 
 def static_boxes(world) -> list[tuple[np.ndarray, np.ndarray]]:
     """The world axis-aligned box ``(lo, hi)`` of each static geometry, where the scene puts
     it (the corners of its own box, moved)."""
     parts = world.parts
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     out = []
     for g in parts.static:
         geom = parts.geoms[g]
         T = parts.default_place[geom.body].T @ geom.T_body_geom
-        corners = np.asarray(geom.aabb_center, float) + signs * np.asarray(geom.aabb_half, float)
-        W = corners @ T[:3, :3].T + T[:3, 3]
+        W = _box_corners(geom) @ T[:3, :3].T + T[:3, 3]
         out.append((W.min(0), W.max(0)))
     return out
 
 
-def base_probe(world, q0: np.ndarray) -> tuple[float, float, float] | None:
+def base_probe(world) -> tuple[float, float, float] | None:
     """``(radius, zlo, zhi)`` of the cylinder inside the base (module docstring) with the base
     at the origin, or None: the largest circle about the base's origin inside the footprint (the
     convex hull of the vertices, seen from above) of one geometry rigid with the base, the one
@@ -97,8 +123,8 @@ def base_probe(world, q0: np.ndarray) -> tuple[float, float, float] | None:
     parts, model = world.parts, world.model
     groups = rigid_groups(model.tree)
     root = groups[model.tree.root]
-    q = np.array(q0, float)
-    q[:3] = 0.0
+    q = np.array(model.default_q, float)
+    q[:3] = 0.0                  # the base at the origin; what is rigid with it moves with it
     R, p = world.kinematics(q[None])
     best = None
     for g, geom in enumerate(parts.geoms):
@@ -125,9 +151,16 @@ def _vertices(geom) -> np.ndarray:
     footprint; a cylinder's or a sphere's square has the same inscribed circle)."""
     if geom.mesh is not None:
         return np.asarray(geom.mesh.vertices, float)
-    c, h = np.asarray(geom.aabb_center, float), np.asarray(geom.aabb_half, float)
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    return c + signs * h
+    return _box_corners(geom)
+
+
+#: the eight corners of a unit box about the origin
+_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+
+
+def _box_corners(geom) -> np.ndarray:
+    """The corners (8, 3) of a geometry's own axis-aligned box, in its frame."""
+    return np.asarray(geom.aabb_center, float) + _SIGNS * np.asarray(geom.aabb_half, float)
 
 
 def inscribed_radius(P: np.ndarray) -> float:
@@ -161,16 +194,18 @@ def _cross(o, a, b) -> float:
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
 
-def _component(blocked: np.ndarray, start: tuple[int, int]) -> np.ndarray:
-    """The free cells joined to ``start`` by shared sides."""
-    seen = np.zeros_like(blocked)
-    seen[start] = True
-    todo = [start]
-    nx, ny = blocked.shape
+def _fill(labels: np.ndarray, start: tuple[int, int], k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Label ``k`` on the unvisited free cells (-1) joined to ``start`` by shared sides; their
+    indices ``(ii, jj)``."""
+    nx, ny = labels.shape
+    labels[start] = k
+    todo, ii, jj = [start], [], []
     while todo:
         i, j = todo.pop()
+        ii.append(i)
+        jj.append(j)
         for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
-            if 0 <= a < nx and 0 <= b < ny and not blocked[a, b] and not seen[a, b]:
-                seen[a, b] = True
+            if 0 <= a < nx and 0 <= b < ny and labels[a, b] == -1:
+                labels[a, b] = k
                 todo.append((a, b))
-    return seen
+    return np.array(ii), np.array(jj)

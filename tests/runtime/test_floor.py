@@ -72,14 +72,14 @@ def test_a_start_on_the_wall_or_a_fixed_base_is_not_narrowed(clutter):
     assert floor_bounds(cw, q, model.lower, model.upper) is None
     stub = SimpleNamespace(model=SimpleNamespace(mobile_base=False, lower=model.lower,
                                                  upper=model.upper),
-                           collision=cw, q0=model.default_q)
+                           collision=cw, q0=model.default_q, floor_map=None)
     PlanningProblem.narrow_to_floor(stub)
     assert stub.floor is None and np.array_equal(stub.lower, model.lower)
 
 
 def test_the_problem_narrows_the_base_bounds_and_only_them(clutter):
     _, model, cw = clutter
-    stub = SimpleNamespace(model=model, collision=cw, q0=model.default_q)
+    stub = SimpleNamespace(model=model, collision=cw, q0=model.default_q, floor_map=None)
     PlanningProblem.narrow_to_floor(stub)
     assert stub.floor == (stub.lower[0], stub.upper[0], stub.lower[1], stub.upper[1])
     assert stub.upper[0] - stub.lower[0] < 5.5 < model.upper[0] - model.lower[0]
