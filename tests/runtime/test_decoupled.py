@@ -106,6 +106,16 @@ def test_every_listed_ompl_planner_exists_and_is_in_run_help():
     assert "ompl:BITstar" in " ".join(helps.split())
 
 
+def _colliding_pair(problem, mode, seed: int):
+    """Two collision-free random states whose straight motion collides (the first such of
+    200 pairs drawn from ``seed``)."""
+    Q = problem.uniform(np.random.default_rng(seed), 400)
+    Q = Q[problem.valid_batch(mode, Q)]
+    ok = problem.motions_valid(mode, Q[:-1:2], Q[1::2], 0.05)
+    i = int(np.nonzero(~ok)[0][0])
+    return Q[2 * i], Q[2 * i + 1]
+
+
 @pytest.mark.parametrize("planner", ["ompl:RRTConnect", "ompl:KPIECE1", "tmpc"])
 def test_one_motion_each_planner(tabletop_run, planner):
     """Random start and goal states whose straight motion collides: the planned path joins
@@ -113,12 +123,7 @@ def test_one_motion_each_planner(tabletop_run, planner):
     from tmpc.runtime.planners import plan_motion
     problem, _ = tabletop_run
     mode = problem.initial
-    rng = np.random.default_rng(11)
-    Q = problem.uniform(rng, 400)
-    Q = Q[problem.valid_batch(mode, Q)]
-    ok = problem.motions_valid(mode, Q[:-1:2], Q[1::2], 0.05)
-    i = int(np.nonzero(~ok)[0][0])
-    q0, q1 = Q[2 * i], Q[2 * i + 1]
+    q0, q1 = _colliding_pair(problem, mode, 11)
     res = plan_motion(problem, mode, q0, q1, planner, time_limit=20.0, seed=4)
     assert res.path is not None, res.status
     assert np.array_equal(res.path[0], q0) and np.array_equal(res.path[-1], q1)
@@ -161,13 +166,9 @@ def test_shortcuts_take_the_cut_a_one_batch_check_takes(tabletop_run):
     from tmpc.runtime.planners.decoupled.lazyprm import shortcut
     problem, _ = tabletop_run
     mode = problem.initial
-    rng = np.random.default_rng(5)
-    Q = problem.uniform(rng, 400)
-    Q = Q[problem.valid_batch(mode, Q)]
-    ok = problem.motions_valid(mode, Q[:-1:2], Q[1::2], 0.05)
-    i = int(np.nonzero(~ok)[0][0])
-    there = plan_motion(problem, mode, Q[2 * i], Q[2 * i + 1], "ompl:RRT", 20.0, seed=3)
-    back = plan_motion(problem, mode, Q[2 * i + 1], Q[2 * i], "ompl:RRT", 20.0, seed=4)
+    q0, q1 = _colliding_pair(problem, mode, 5)
+    there = plan_motion(problem, mode, q0, q1, "ompl:RRT", 20.0, seed=3)
+    back = plan_motion(problem, mode, q1, q0, "ompl:RRT", 20.0, seed=4)
     path = np.vstack([there.path, back.path[1:], there.path[1:]])
     for seed in range(3):
         got = shortcut(problem, mode, path, np.random.default_rng(seed), rounds=12)
