@@ -167,7 +167,9 @@ class DecoupledPlanner:
             lookahead=params.get("lookahead", base.lookahead) is True,
             backjump=params.get("backjump", base.backjump) is True,
             park_idle=params.get("park_idle", base.park_idle) is True,
-            motion_range=float(params.get("motion_range", base.motion_range)))
+            motion_range=float(params.get("motion_range", base.motion_range)),
+            projection_iterations=int(params.get("projection_iterations",
+                                                 base.projection_iterations)))
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
