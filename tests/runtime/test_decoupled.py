@@ -533,3 +533,107 @@ def test_a_step_puts_the_arm_its_action_does_not_use_back_where_it_started(block
         assert out and all(np.any(x[idle] != q[idle]) and np.any(x[idle] != p.q0[idle])
                            for x in out)
         assert all(p.holds(p.initial, action, x) for x in out)
+
+
+def _rounds_starts(planner, action, tr) -> list:
+    """The starts of each round of ``planner.transition_samples`` of ``action`` from the start
+    configuration, every configuration taken as colliding."""
+    p = planner.p
+    starts = []
+    real_project = p.project_raw
+
+    def project(mode, action, S, iterations=None):
+        starts.append(np.array(S))
+        return real_project(mode, action, S, iterations)
+    p.project_raw = project
+    p.valid_batch = lambda mode, Q: np.zeros(len(Q), bool)
+    try:
+        assert planner.transition_samples(p.initial, action, p.q0, tr) == []
+        return starts
+    finally:
+        del p.project_raw, p.valid_batch
+
+
+def test_seed_starts_come_from_the_same_arms_valid_configurations(blocks_d):
+    """DecoupledPlanner.transition_samples with ``seed_starts`` (a manifest's; off by
+    default): in the rounds after a step's first (which found no valid configuration), the
+    last ``seed_starts`` of the starts are valid configurations found
+    before by actions that move the same joints (the same arm's), perturbed by SEED_NOISE of
+    each joint's range; the other arm's actions draw on a pool of their own. Seeded, a grasp
+    projects to valid configurations several times as often: a top grasp holds about its
+    axis at any angle, but the open gripper clears a block only face on."""
+    from tmpc.runtime.planners.decoupled.planner import (SEED_NOISE, SEED_POOL,
+                                                         DecoupledOptions, DecoupledPlanner)
+
+    p = blocks_d
+    gp = p.ground
+    span = np.asarray(p.upper) - np.asarray(p.lower)
+
+    def step(planner, name, *args):
+        action = gp.find_action(name, *args)
+        return action, planner.tasks.transition(gp.init, action, gp.apply(gp.init, action))
+
+    def farthest_from_pool(planner, starts):
+        pool = next(iter(planner.pool.values()))
+        return [min(np.abs(p.difference(s, x) / span).max() for x in pool) for s in starts]
+
+    def valid_yield(planner, action, rounds=12):
+        found = 0
+        for _ in range(rounds):
+            starts = planner.starts_around(p.q0, planner.rng)
+            planner.seeded(action.id, starts)
+            Qp, holds, _ = p.project_raw(p.initial, action, starts,
+                                         iterations=planner.opt.projection_iterations)
+            found += int(p.valid_batch(p.initial, Qp[holds]).sum()) if holds.any() else 0
+        return found
+
+    seeded = DecoupledPlanner(p, seed=0, options=DecoupledOptions(seed_starts=8,
+                                                                  sample_rounds=8))
+    plain = DecoupledPlanner(p, seed=0, options=DecoupledOptions(sample_rounds=8))
+    unstack, tr = step(seeded, "unstack", "d", "b", "l_gripper_tool_frame")
+    for _ in range(10):
+        seeded.transition_samples(p.initial, unstack, p.q0, tr)
+        plain.transition_samples(p.initial, unstack, p.q0, tr)
+        if seeded.pool:
+            break
+    assert not plain.pool
+    (key, pool), = seeded.pool.items()
+    assert 0 < len(pool) <= SEED_POOL and all(p.holds(p.initial, unstack, x) for x in pool)
+    assert key == seeded.moves[unstack.id].tobytes()
+    # another action of the same arm: its last 8 starts are the pool's, perturbed
+    pickup, tr = step(seeded, "pickup", "d", "table", "l_gripper_tool_frame")
+    for planner in (seeded, plain):
+        planner.transition_samples(p.initial, pickup, p.q0, tr)
+    assert seeded.moves[pickup.id].tobytes() == key
+    # ... in the rounds after a first that found nothing valid (here: nothing is)
+    for planner in (seeded, plain):
+        starts = _rounds_starts(planner, pickup, tr)
+        assert len(starts) == 8
+        assert min(farthest_from_pool(seeded, starts[0][-8:])) > 6 * SEED_NOISE
+        for S in starts[1:]:
+            far = farthest_from_pool(seeded, S[-8:])
+            assert max(far) < 6 * SEED_NOISE if planner is seeded else min(far) > 6 * SEED_NOISE
+    # the other arm: a pool of its own
+    other, tr = step(seeded, "pickup", "c", "table", "r_gripper_tool_frame")
+    seeded.transition_samples(p.initial, other, p.q0, tr)
+    assert seeded.moves[other.id].tobytes() != key
+    # seeded, valid grasps come several times as often
+    with_seeds, without = valid_yield(seeded, pickup), valid_yield(plain, pickup)
+    assert with_seeds > 2 * without + 3, (with_seeds, without)
+
+
+def test_seed_starts_and_projection_iterations_come_from_the_manifest():
+    """A manifest's ``[planner] seed_starts`` and ``projection_iterations`` reach the
+    decoupled planner; seed_starts above 8 (half a round's starts) is E851."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+
+    class Problem:
+        world = type("World", (), {"config": type("Config", (), {
+            "params": (("seed_starts", 8), ("projection_iterations", 45))})()})()
+
+    opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
+    assert (opt.seed_starts, opt.projection_iterations) == (8, 45)
+    Problem.world.config.params = (("seed_starts", 9),)
+    with pytest.raises(InputError) as err:
+        DecoupledPlanner.from_options(Problem(), 0, {})
+    assert err.value.diagnostics[0].code == "E851"

@@ -106,10 +106,11 @@ class DecoupledOptions:
     #: grows its trees by (0: OMPL's own, a fifth of the space's extent: 3.5 on Sort
     #: Clutter's mobile PR2; a manifest's ``[planner]``)
     motion_range: float = 0.0
-    #: of each round's 16 projection starts, this many (in place of uniform ones) are valid
-    #: transition configurations found before by actions that move the same joints (the
-    #: same arm), a little perturbed (:meth:`DecoupledPlanner.transition_samples`; tmpc's;
-    #: a manifest's ``[planner]``; 0: off)
+    #: of the 16 projection starts of each round after a step's first (which found no valid
+    #: configuration), this many (in place of uniform ones) are valid transition
+    #: configurations found before by actions that move the same joints (the same arm), a
+    #: little perturbed (:meth:`DecoupledPlanner.seeded`; tmpc's; a manifest's
+    #: ``[planner]``; 0: off)
     seed_starts: int = 0
     min_steps: int = 0
     max_steps: int = 100
@@ -526,7 +527,8 @@ class DecoupledPlanner:
                 near = q + self.rng.normal(0.0, 0.3, (PROJECTION_BATCH // 2, len(q))) \
                     * (p.upper - p.lower)
                 starts = np.vstack([p.wrap(near), p.uniform(self.rng, PROJECTION_BATCH // 2)])
-            self.seeded(key, starts)
+            if r > 0:                        # none valid from the usual starts: seeds too
+                self.seeded(key, starts)
             # the joints the action does not use go back to where the run started them; in
             # the wider rounds, where that collides, where they are and the start values
             idle = self.idle.get(key) if self.opt.park_idle else None
@@ -575,21 +577,20 @@ class DecoupledPlanner:
 
     def seeded(self, key, starts: np.ndarray) -> None:
         """With ``seed_starts``, the last ``seed_starts`` of ``starts`` (uniform ones)
-        replaced in place by valid transition configurations found before by actions that
-        move the same joints as action ``key`` (its first projection's), each perturbed by
-        :data:`SEED_NOISE` of each joint's range. Measured on Blocks World E's start, 20
+        replaced in place by valid transition configurations (drawn with replacement) found
+        before by actions that move the same joints as action ``key`` (its first
+        projection's), each perturbed by :data:`SEED_NOISE` of each joint's range. Measured on Blocks World E's start, 20
         rounds of 16 projections of a left-arm grasp of `d`: 16 valid configurations from
         the usual starts, 62 with 4 seeds from another block's grasps, 113 with 8: a top grasp
         holds about its axis at any angle, but the open gripper clears a block only face on,
         and a seed comes face on."""
         moves = self.moves.get(key)
         pool = self.pool.get(moves.tobytes()) if moves is not None else None
-        k = min(self.opt.seed_starts, len(pool or ()))
-        if not k:
+        k = self.opt.seed_starts
+        if not k or not pool:
             return
         p = self.p
-        pick = self.rng.choice(len(pool), size=k, replace=False)
-        S = np.array([pool[i] for i in pick])
+        S = np.array([pool[i] for i in self.rng.integers(len(pool), size=k)])
         starts[-k:] = p.wrap(S + self.rng.normal(0.0, SEED_NOISE, S.shape) * (p.upper - p.lower))
 
     def idle_joints(self, unmoved: np.ndarray) -> np.ndarray:
