@@ -56,8 +56,8 @@ from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
 #: collided configurations of a step's last sampling checked for what they hit
 #: (:meth:`DecoupledPlanner.culprits`)
 BLAME_CHECKS = 4
-#: transition configurations that motions reached, kept per set of joints the actions move,
-#: the newest, as projection starts (``seed_starts``)
+#: valid transition configurations kept per set of joints the actions move, the newest, as
+#: projection starts (``seed_starts``)
 SEED_POOL = 32
 #: a seed start's noise, per joint, a share of the joint's range
 SEED_NOISE = 0.02
@@ -107,8 +107,8 @@ class DecoupledOptions:
     #: Clutter's mobile PR2; a manifest's ``[planner]``)
     motion_range: float = 0.0
     #: of the 16 projection starts of each round after a step's first (which found no valid
-    #: configuration), this many (in place of uniform ones) are transition configurations
-    #: that motions reached before, of actions that move the same joints (the same arm), a
+    #: configuration), this many (in place of uniform ones) are valid transition
+    #: configurations found before by actions that move the same joints (the same arm), a
     #: little perturbed (:meth:`DecoupledPlanner.seeded`; tmpc's; a manifest's
     #: ``[planner]``; 0: off)
     seed_starts: int = 0
@@ -340,8 +340,6 @@ class DecoupledPlanner:
                     continue
             else:
                 targets -= 1
-            if motion is not None:
-                self.remember(action, target)
             tr.count(mode.id)
             self.counts["transitions"] += 1
             succ = mode
@@ -410,7 +408,6 @@ class DecoupledPlanner:
                 if motion is None:
                     return i
                 stack[i][3] = motion
-                self.remember(stack[i][2], stack[i][0])
         return None
 
     @staticmethod
@@ -570,33 +567,24 @@ class DecoupledPlanner:
                         self.collided_now.append(np.array(qp))
             if out:
                 break
+        if out and self.opt.seed_starts:
+            pool = self.pool.setdefault(self.moves[key].tobytes(), [])
+            pool += [x.copy() for x in out]
+            del pool[:-SEED_POOL]
         if out:                              # the nearest first: shorter motions
             out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
         return out[:keep or self.opt.samples]
 
-    def remember(self, action, q: np.ndarray) -> None:
-        """With ``seed_starts``, ``q`` (a transition configuration of ``action`` that a motion
-        reached) joins the newest :data:`SEED_POOL` of the joints ``action`` moves. Only
-        reached ones: valid ones that no motion had reached yet, seeded on, found more of
-        their kind (Blocks World E v7: 38 failed motions into the left arm's grasps of `e`
-        on the table, 129.1 s against 35.0 s without seeds)."""
-        moves = self.moves.get(action.id) if action is not None else None
-        if not self.opt.seed_starts or moves is None:
-            return
-        pool = self.pool.setdefault(moves.tobytes(), [])
-        pool.append(np.array(q))
-        del pool[:-SEED_POOL]
-
     def seeded(self, key, starts: np.ndarray) -> None:
         """With ``seed_starts``, the last ``seed_starts`` of ``starts`` (uniform ones)
-        replaced in place by transition configurations that motions reached before
-        (:meth:`remember`, drawn with replacement) of actions that move the same joints as
-        action ``key`` (its first projection's), each perturbed by :data:`SEED_NOISE` of each
-        joint's range. Measured on Blocks World E's start, 20
-        rounds of 16 projections of a left-arm grasp of `d`: 16 valid configurations from
-        the usual starts, 62 with 4 seeds from another block's grasps, 113 with 8: a top grasp
-        holds about its axis at any angle, but the open gripper clears a block only face on,
-        and a seed comes face on."""
+        replaced in place by valid transition configurations (drawn with replacement) found
+        before by actions that move the same joints as action ``key`` (its first
+        projection's), each perturbed by :data:`SEED_NOISE` of each joint's range. Measured
+        on Blocks World E's start, 20 rounds of 16 projections of a left-arm grasp of `d`:
+        16 valid configurations from the usual starts, 62 with 4 seeds from another block's
+        grasps, 113 with 8: a top grasp holds about its axis at any angle, but the open
+        gripper clears a block only face on, and a seed comes face on. Seeds may come from
+        configurations no motion reaches, and find more of those (docs/planning.md)."""
         moves = self.moves.get(key)
         pool = self.pool.get(moves.tobytes()) if moves is not None else None
         k = self.opt.seed_starts
