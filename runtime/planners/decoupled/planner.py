@@ -584,7 +584,8 @@ class DecoupledPlanner:
         16 valid configurations from the usual starts, 62 with 4 seeds from another block's
         grasps, 113 with 8: a top grasp holds about its axis at any angle, but the open
         gripper clears a block only face on, and a seed comes face on. Seeds may come from
-        configurations no motion reaches, and find more of those (docs/planning.md)."""
+        configurations motions reach only through narrow passages, and find more of those
+        (docs/planning.md)."""
         moves = self.moves.get(key)
         pool = self.pool.get(moves.tobytes()) if moves is not None else None
         k = self.opt.seed_starts
