@@ -79,8 +79,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                             "decoupled planner (default 0: OMPL's own, a fifth of the space's "
                             "extent; docs/planning.md)"),
     "seed_starts": (int, "of the decoupled planner's 16 projection starts a round after a "
-                         "step's first, this many are transition configurations of the same "
-                         "arm that motions reached (default 0; 0-8; docs/planning.md)"),
+                         "step's first, this many are earlier valid transition configurations "
+                         "of the same arm (default 0; 0-8; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

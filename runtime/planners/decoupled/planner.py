@@ -192,8 +192,9 @@ class DecoupledPlanner:
         if not (opts.motion_budget > 0 and opts.samples >= 1 and opts.motion_range >= 0
                 and 0 <= opts.seed_starts <= PROJECTION_BATCH // 2):
             raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget}, "
-                                   f"samples {opts.samples} or motion range "
-                                   f"{opts.motion_range} out of range", None,
+                                   f"samples {opts.samples}, motion range "
+                                   f"{opts.motion_range} or seed_starts {opts.seed_starts} "
+                                   "out of range", None,
                                    "the motion budget is > 0 seconds, samples >= 1, the "
                                    f"motion range >= 0, seed_starts 0..{PROJECTION_BATCH // 2}"))
         return cls(problem, seed, opts)
