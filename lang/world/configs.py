@@ -81,6 +81,12 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "seed_starts": (int, "of the decoupled planner's 16 projection starts a round after a "
                          "step's first, this many are earlier valid transition configurations "
                          "of the same arm (default 0; 0-8; docs/planning.md)"),
+    "retreat_sideways": (bool, "the decoupled planner's motions retreat with the hand the "
+                               "action at their end grasps or releases with, sideways too "
+                               "(default false; docs/planning.md)"),
+    "park_first": (bool, "with park_idle, the decoupled planner moves the arm a step does "
+                         "not use to where the run started it first, alone, then the rest "
+                         "(default false; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

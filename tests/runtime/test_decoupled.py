@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -265,12 +266,12 @@ def test_lazy_motions_follow_the_whole_chain_and_a_failed_motion_backtracks(tabl
         calls.append("sample")
         return samples(*args)
 
-    def moving(mode, q0, q1, deadline):
+    def moving(mode, q0, q1, deadline, before=None, after=None):
         calls.append("motion")
         if calls.count("motion") == 2 and not failed:      # the second motion fails once
             failed.append(len(calls))
             return None
-        return motion(mode, q0, q1, deadline)
+        return motion(mode, q0, q1, deadline, before, after)
 
     planner.transition_samples, planner.motion = sampling, moving
     result = planner.solve(60.0)
@@ -621,3 +622,67 @@ def test_seed_starts_and_projection_iterations_come_from_the_manifest():
     with pytest.raises(InputError) as err:
         DecoupledPlanner.from_options(Problem(), 0, {})
     assert err.value.diagnostics[0].code == "E851"
+
+
+def test_park_first_moves_the_idle_arm_alone_then_the_rest(blocks_d):
+    """DecoupledPlanner.motion with ``park_first`` (and ``park_idle``; a manifest's, off by
+    default): a motion whose end puts the arm its action does not use back where the run
+    started it plans that arm's motion first, alone (the configuration between: the start
+    with that arm at its end's values), then the rest. The path is free and passes through
+    that configuration; without the option, or when that configuration collides, there is
+    none. With ``retreat_sideways`` the end's retreat moves the action's own hand."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+
+    p = blocks_d
+    gp, mode = p.ground, p.initial
+    opts = DecoupledOptions(park_idle=True, park_first=True, retreat_sideways=True)
+    planner = DecoupledPlanner(p, seed=0, options=opts)
+    planner.motion_space()
+    action = gp.find_action("pickup", "a", "table", "l_gripper_tool_frame")
+    tr = planner.tasks.transition(gp.init, action, gp.apply(gp.init, action))
+    planner.transition_samples(mode, action, p.q0, tr)       # learns the idle arm
+    b = planner.transition_samples(mode, action, p.q0, tr)[0]
+    idle = planner.idle[action.id]
+    assert np.all(b[idle] == p.q0[idle])
+    # the right arm elsewhere, collision-free: the motion's start
+    Q = np.repeat(p.q0[None], 64, axis=0)
+    Q[:, idle] = p.uniform(np.random.default_rng(3), 64)[:, idle]
+    a = Q[np.flatnonzero(p.valid_batch(mode, Q))[0]]
+    mid = planner.parked_between(mode, a, b, action)
+    assert mid is not None
+    assert np.all(mid[idle] == b[idle]) and np.all(mid[~idle] == a[~idle])
+    for other in (DecoupledPlanner(p, seed=0, options=DecoupledOptions(park_idle=True)),
+                  DecoupledPlanner(p, seed=0, options=DecoupledOptions(park_first=True))):
+        other.idle = planner.idle
+        assert other.parked_between(mode, a, b, action) is None
+    assert planner.parked_between(mode, a, b, None) is None
+    # that configuration colliding: none
+    p.valid_batch = lambda m, X: np.zeros(len(X), bool)
+    try:
+        assert planner.parked_between(mode, a, b, action) is None
+    finally:
+        del p.valid_batch
+    calls = []
+    real_plan = planner.plan
+
+    def plan(mode, x, y, budget, seed, fixed=None):
+        calls.append((x, y, real_plan(mode, x, y, budget, seed, fixed)))
+        return calls[-1][2]
+    planner.plan = plan
+    path = planner.motion(mode, a, b, time.perf_counter() + 30, None, action)
+    assert path is not None and planner.counts.get("parked_first") == 1
+    assert np.allclose(path[0], a) and np.allclose(path[-1], b)
+    assert p.motions_valid(mode, path[:-1], path[1:], 0.05, ends=True).all()
+    # first the right arm alone, to where it started; then the left arm and the torso
+    (x0, y0, first), (x1, _, rest) = calls
+    assert np.all(y0[idle] == b[idle]) and np.all(y0[~idle] == x0[~idle])
+    assert np.all(first[:, ~idle] == x0[~idle]) and np.all(x1 == y0)
+    assert np.allclose(rest[:, idle], b[idle]) and not np.allclose(x0[idle], b[idle])
+    # the end's retreat is the left hand's: after the planner's path, the right arm stays
+    # and the left hand moves
+    tail = path[next(i for i in range(len(path) - 1, -1, -1)
+                     if np.allclose(path[i], rest[-1])):]
+    assert len(tail) > 1 and np.allclose(tail[:, idle], b[idle])
+    hand = p.model.frames.index("l_gripper_tool_frame")
+    ends = p.frames_of(tail[[0, -1]])
+    assert np.linalg.norm(ends[0].p[hand] - ends[1].p[hand]) > 1e-3

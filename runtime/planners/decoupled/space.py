@@ -86,12 +86,7 @@ class MotionSpace:
         self.mode: Mode = problem.initial
         self.counts = {"ompl_states_checked": 0, "ompl_motions_checked": 0}
         self.space = ob.RealVectorStateSpace(n)
-        bounds = ob.RealVectorBounds(n)
-        for i, (lo, hi) in enumerate(zip(problem.lower, problem.upper)):
-            lo, hi = float(lo), float(hi)
-            bounds.setLow(i, lo)
-            bounds.setHigh(i, hi if hi > lo else lo + 1e-9)    # OMPL wants low < high
-        self.space.setBounds(bounds)
+        self.space.setBounds(self.bounds())
         self.si = ob.SpaceInformation(self.space)
         # the checker objects must outlive the space information (kept as attributes)
         self.validity = _validity_checker(ob, self)
@@ -144,11 +139,40 @@ class MotionSpace:
                                          ends=True).all())
 
     # ---- planning and simplifying -------------------------------------------------------------
+    def bounds(self, fixed: np.ndarray | None = None, at: np.ndarray | None = None):
+        """OMPL's bounds of the space: the problem's joint limits, or with the joints of the
+        mask ``fixed`` held at their values in ``at`` (an interval of 1e-9 wide: OMPL wants
+        low < high)."""
+        ob, _, _ = ompl_modules()
+        bounds = ob.RealVectorBounds(self.dim)
+        for i, (lo, hi) in enumerate(zip(self.p.lower, self.p.upper)):
+            lo, hi = float(lo), float(hi)
+            if fixed is not None and fixed[i]:
+                lo = hi = float(at[i])
+            bounds.setLow(i, lo)
+            bounds.setHigh(i, hi if hi > lo else lo + 1e-9)
+        return bounds
+
+    def bound(self, fixed: np.ndarray | None = None, at: np.ndarray | None = None) -> None:
+        """Set the space's bounds (:meth:`bounds`) and set the space up again."""
+        self.space.setBounds(self.bounds(fixed, at))
+        self.si.setup()
+
     def plan(self, q0: np.ndarray, q1: np.ndarray, name: str, budget: float,
-             seed: int) -> tuple[np.ndarray | None, str]:
+             seed: int, fixed: np.ndarray | None = None) -> tuple[np.ndarray | None, str]:
         """A path q0 -> q1 (k, n), both ends exact and every segment valid by tmpc, from OMPL's
         planner ``name`` (a class of ``ompl.geometric``) within ``budget`` seconds; (None,
-        OMPL's status) when it found none."""
+        OMPL's status) when it found none. ``fixed``: a mask of joints the path holds where
+        ``q0`` has them (``q1`` has them there too): OMPL plans in the others alone."""
+        if fixed is not None and fixed.any():
+            self.bound(fixed, q0)
+            try:
+                Q, status = self.plan(q0, q1, name, budget, seed)
+            finally:
+                self.bound()
+            if Q is not None:
+                Q[:, fixed] = q0[fixed]
+            return Q, status
         ob, og, _ = ompl_modules()
         seed_ompl(seed)
         setup = og.SimpleSetup(self.si)
