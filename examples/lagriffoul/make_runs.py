@@ -44,10 +44,17 @@ PLANNER.update({f"blocks-{x}": PLANNER["blocks-E"] + ['lookahead = true'] for x 
 # a step's rounds after its first start partly from the arm's earlier valid configurations
 # (seed_starts, side by side: Blocks F median 42.1 s against 71.7 s, 10/10 both; Blocks H
 # 9/10, median 186.7 s, against 3/7; Blocks E median 19.5 s against 27.4 s and G 104.1 s
-# against 123.2 s, but single variations 2-4x as long: E and G leave it off; Blocks I 5/10,
+# against 123.2 s, but single variations 2-4x as long: G leaves it off; Blocks I 5/10,
 # 4 within 300 s, against 2/10, 1 within 300 s)
 for x in "FHI":
     PLANNER[f"blocks-{x}"] = PLANNER[f"blocks-{x}"] + ['seed_starts = 8']
+# Blocks E seeds too, with its motions' retreats by the hand that acts (sideways too) and the
+# idle arm moved alone first (retreat_sideways, park_first: v7's failed motions, 13 against
+# 38, each moved both arms out of and into narrow places under the ceiling; ten variations
+# side by side with seeds alone: median 19.2 s against 19.1 s, mean 22.3 s against 30.3 s,
+# max 45.9 s against 124.9 s). Blocks G with the three: v3 not in 300 s (90 failed motions)
+PLANNER["blocks-E"] = PLANNER["blocks-E"] + ['seed_starts = 8', 'retreat_sideways = true',
+                                             'park_first = true']
 
 def instances() -> dict[str, tuple]:
     out: dict[str, tuple] = {}
