@@ -50,8 +50,9 @@ def hand_frames(problem: PlanningProblem, action=None) -> list[int]:
 def cartesian_steps(problem: PlanningProblem, Q: np.ndarray, hands: np.ndarray,
                     directions: np.ndarray, step: float) -> np.ndarray:
     """Each row of ``Q`` (B, n) after one straight step of its frame ``hands[b]`` (direction
-    ``directions[b]``, an index of :data:`DIRECTIONS` + :data:`SIDEWAYS`) of ``step`` metres, joint limits
-    respected: one batched forward kinematics for every row's finite differences."""
+    ``directions[b]``, an index of :data:`DIRECTIONS` + :data:`SIDEWAYS`) of ``step``
+    metres, joint limits respected: one batched forward kinematics for every row's finite
+    differences."""
     B, n = Q.shape
     X = np.repeat(Q[:, None], n + 1, 1)                          # (B, n+1, n)
     X[:, 1:] += np.eye(n)[None] * EPS
@@ -77,7 +78,7 @@ def cartesian_steps(problem: PlanningProblem, Q: np.ndarray, hands: np.ndarray,
 
 
 def retreat_chains(problem: PlanningProblem, items: list[tuple[Mode, np.ndarray]],
-                   hands: list[int], steps: int = 4, step: float = 0.025,
+                   hands: list, steps: int = 4, step: float = 0.025,
                    resolution: float = 0.05, sideways: bool = False,
                    ) -> list[list[list[np.ndarray]]]:
     """For each ``(mode, q)`` of ``items``, its chains (one per hand and direction, in that

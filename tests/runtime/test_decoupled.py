@@ -497,9 +497,10 @@ def _sample_steps(planner, action, tr, q, idle, blocked=(),
 def test_a_step_puts_the_arm_its_action_does_not_use_back_where_it_started(blocks_d):
     """DecoupledPlanner.transition_samples with ``park_idle`` (a manifest's; off by default):
     after an action's first projection, its starts put the joints it never moves and that no
-    joint it moves carries (a PR2's other arm) where the run started them; its own wrist roll, free about a top grasp's axis, is still
-    sampled. Where the other arm there collides, the wider rounds try it where it is, then
-    at their starts' values: the configurations returned still hold the precondition."""
+    joint it moves carries (a PR2's other arm) where the run started them; its own wrist
+    roll, free about a top grasp's axis, is still sampled. Where the other arm there
+    collides, the wider rounds try it where it is, then at their starts' values: the
+    configurations returned still hold the precondition."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
 
     p = blocks_d
