@@ -23,11 +23,12 @@ a plan whose first step is exhausted, or whose motions took ``plan_budget`` atte
 With ``lazy_motions`` (a manifest's) the motions wait until every step has a configuration
 (:meth:`DecoupledPlanner.follow`); with ``lookahead`` a step that grasps or puts down an
 object tries first the configurations after which the plan's next step on that object holds
-(:meth:`DecoupledPlanner.looking_ahead`). When no task plan is left (the exclusions and
-blockers were learnt from a few samples per step, not proofs), task planning starts afresh
-with new samples, until the time limit. A goal with geometric literals is one more step (the
-goal's projection). The final plan's motions are
-shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time
+(:meth:`DecoupledPlanner.looking_ahead`); with ``retreat_sideways`` a motion's ends retreat by
+the hand that acts there, and with ``park_first`` the arm a step does not use goes back to its
+place first, alone (:meth:`DecoupledPlanner.motion`). When no task plan is left (the
+exclusions and blockers were learnt from a few samples per step, not proofs), task planning
+starts afresh with new samples, until the time limit. A goal with geometric literals is one
+more step (the goal's projection). The final plan's motions are shortcut by tmpc (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time
 limit) unless ``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead).
 Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
 """
