@@ -30,7 +30,8 @@ exclusions and blockers were learnt from a few samples per step, not proofs), ta
 starts afresh with new samples, until the time limit. A goal with geometric literals is one
 more step (the goal's projection). The final plan's motions are shortcut by tmpc
 (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time limit) unless
-``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead). Deterministic from the seed: numpy's generator for the samples, OMPL's seeded per motion.
+``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead). Deterministic from
+the seed: numpy's generator for the samples, OMPL's seeded per motion.
 """
 
 from __future__ import annotations
