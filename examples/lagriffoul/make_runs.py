@@ -52,9 +52,13 @@ for x in "FHI":
 # idle arm moved alone first (retreat_sideways, park_first: v7's failed motions, 13 against
 # 38, each moved both arms out of and into narrow places under the ceiling; ten variations
 # side by side with seeds alone: median 19.2 s against 19.1 s, mean 22.3 s against 30.3 s,
-# max 45.9 s against 124.9 s). Blocks G with the three: v3 not in 300 s (90 failed motions)
-PLANNER["blocks-E"] = PLANNER["blocks-E"] + ['seed_starts = 8', 'retreat_sideways = true',
-                                             'park_first = true']
+# max 45.9 s against 124.9 s). Blocks G with the three: v3 not in 300 s (90 failed motions);
+# Blocks F alike with them or without; Blocks H 10/10 with them, median 162.0 s, max 237.1 s,
+# against 166.0 s and 273.2 s with seeds alone, side by side (33 failed motions against 55)
+PLANNER["blocks-E"] = PLANNER["blocks-E"] + ['seed_starts = 8']
+for x in "EH":
+    PLANNER[f"blocks-{x}"] = PLANNER[f"blocks-{x}"] + ['retreat_sideways = true',
+                                                       'park_first = true']
 
 def instances() -> dict[str, tuple]:
     out: dict[str, tuple] = {}
