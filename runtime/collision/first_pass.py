@@ -21,7 +21,7 @@ import numpy as np
 
 from tmpc.runtime.collision.geometry import PassGeometry, geom_frames
 from tmpc.runtime.collision.kernel import fall_back, load_kernel, pass_kernel
-from tmpc.runtime.collision.pair_table import GJK_MARGIN, PairTable
+from tmpc.runtime.collision.pair_table import GJK_MARGIN, PairTable, PairTables
 from tmpc.runtime.collision.spheres import (
     K_MAX,
     NEVER,
@@ -81,6 +81,7 @@ class Plan:
     box_half: np.ndarray         # (W, 3) half-extents of each obstacle's world AABB
     ff: np.ndarray               # (F, 2)
     tables: list[tuple[int, "PairTable"]]   # (index into mm, table)
+    table_set: PairTables        # the same tables, read at once
     # the convex stage (hull_points), geometry i = the moving ones (frame coordinates), then
     # the obstacles (world): its hull points hull_p[hull_s[i]:hull_s[i + 1]], every point of it
     # all_p[all_s[i]:all_s[i + 1]] (none: the hull points), its radius hull_r[i]
@@ -228,7 +229,8 @@ class FirstPass:
                     table_of=table_of, bb_m=bb_m, bb_start=bb_start,
                     box_geom=box_geom.astype(np.int64), box_R=box_R, box_t=box_t, box_h=box_h,
                     box_r=box_r, box_half=box_half.reshape(-1, 3), ff=pairs[~ma & ~mb],
-                    tables=tables, hull_p=hull_p, hull_s=hull_s, all_p=all_p, all_s=all_s,
+                    tables=tables, table_set=PairTables.of([t for _, t in tables]),
+                    hull_p=hull_p, hull_s=hull_s, all_p=all_p, all_s=all_s,
                     hull_r=np.array([h[2] for h in convex], float), sure_ok=sure_ok,
                     box_x=box_x)
 
@@ -280,9 +282,7 @@ class FirstPass:
         R, p = self.kinematics(Q) if frames is None else frames
         R = np.ascontiguousarray(np.asarray(R)[plan.used][..., :n])
         p = np.ascontiguousarray(np.asarray(p)[plan.used][..., :n])
-        free = np.zeros((len(plan.tables), n), bool)
-        for row, (_, table) in enumerate(plan.tables):
-            free[row] = table.free(Q)
+        free = np.ascontiguousarray(plan.table_set.free(Q))
         cap = max(64, 4 * n)
         M, K = plan.cov.shape[:2]
         scratch = (np.empty((M, 3)), np.empty((K, 3)), np.empty((K, 3)), np.empty((4, 3)),

@@ -714,6 +714,33 @@ def test_a_refused_call_of_the_built_pass_is_answered_by_the_jit(pr2_mobile, mon
     assert kernel.KERNEL_STATE["why"].startswith("a refused call")
 
 
+def test_pair_tables_read_at_once_answer_as_each_table():
+    """The stacked tables (one array call per first pass) answer exactly as each table's own
+    ``free``: one- and two-coordinate tables, wrapping coordinates (states several turns
+    away), states outside the limits and on grid points."""
+    from tmpc.runtime.collision.pair_table import PairTable, PairTables
+    rng = np.random.default_rng(5)
+    tables = []
+    for k, (cols, wrap) in enumerate([((3,), (False,)), ((1, 4), (False, True)),
+                                      ((0,), (True,)), ((2, 5), (False, False)),
+                                      ((5, 1), (True, True))]):
+        wrap = np.array(wrap)
+        lo = np.where(wrap, -np.pi, rng.uniform(-2, 0, len(cols)))
+        hi = np.where(wrap, np.pi, rng.uniform(0.5, 2, len(cols)))
+        n = rng.integers(2, 40, len(cols))
+        step = np.where(wrap, (hi - lo) / n, (hi - lo) / (n - 1))
+        tables.append(PairTable(k, k + 1, np.array(cols), lo, step, n, wrap,
+                                rng.uniform(0.01, 0.5, len(cols)),
+                                rng.uniform(-0.01, 0.3, int(np.prod(n)))))
+    Q = rng.uniform(-9, 9, (3000, 6))
+    Q[:500] = np.round(Q[:500], 1)                 # some on grid lines and cell borders
+    stacked = PairTables.of(tables).free(Q)
+    each = np.stack([t.free(Q) for t in tables])
+    assert stacked.shape == each.shape == (5, 3000)
+    assert (stacked == each).all() and 0.05 < each.mean() < 0.95
+    assert PairTables.of([]).free(Q).shape == (0, 3000)
+
+
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
     """The PR2 shoulder pan links depend on two joints only: their table's "free" answer is
     checked against fcl over the whole range of both joints (they do meet in it)."""
