@@ -61,14 +61,14 @@ def shortcut(p: PlanningProblem, mode: Mode, Q: np.ndarray, rng: np.random.Gener
     for _ in range(rounds):
         if len(Q) < 3:             # a straight motion: nothing to cut
             break
-        seg = np.array([p.cost(Q[n + 1:n + 2], Q[n])[0] for n in range(len(Q) - 1)])
+        seg = p.cost(Q[1:], Q[:-1])
         cum = np.concatenate([[0.0], np.cumsum(seg)])
         if cum[-1] <= 1e-12:
             break
         T = np.sort(rng.uniform(0.0, cum[-1], (tries, 2)), axis=1)
         ia, A = points_along(p, Q, cum, seg, T[:, 0])
         ib, B = points_along(p, Q, cum, seg, T[:, 1])
-        gain = (T[:, 1] - T[:, 0]) - np.array([p.cost(b[None], a)[0] for a, b in zip(A, B)])
+        gain = (T[:, 1] - T[:, 0]) - p.cost(B, A)
         keep = (gain > 1e-9) & (ia < ib)
         if not keep.any():
             continue
