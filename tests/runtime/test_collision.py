@@ -479,6 +479,43 @@ def test_first_pass_never_frees_a_colliding_state(pr2_mobile):
     assert w.stats.fine_pairs < 0.8 * w.stats.cover_pairs, w.stats
 
 
+def test_objects_that_stay_put_collide_as_exact_fcl_says_placement_after_placement(pr2_mobile):
+    """The answer for two objects that stay put is kept by their two poses: placements that
+    move one stick onto another and away, and back to poses seen before (answered from what
+    was kept), give exact fcl's answer every time, and the kept answers are asked no more."""
+    from tmpc.runtime.collision import CollisionWorld
+    model, fk = pr2_mobile
+    objs = four_tables() + [box(f"stick{i}", (1.6 + 0.1 * i, 0.1 * i, 0.9), (0.02, 0.02, 0.15),
+                                True) for i in range(3)]
+    sc = mobile_scene(model, objs)
+    w, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
+    Q = np.repeat(model.default_q[None], 5, 0)
+    Q[:, 0] = np.linspace(-0.3, 0.3, 5)
+
+    def at(x, y):
+        T = np.eye(4)
+        T[:3, 3] = (x, y, 0.9)
+        return T
+    onto, away, aside = at(1.7, 0.1), at(1.2, -0.4), at(1.72, 0.12)
+    seq = [{"stick0": away}, {"stick0": onto}, {"stick0": away}, {"stick0": aside},
+           {"stick0": onto, "stick1": away}, {"stick0": onto}, {"stick0": away}]
+    answers = []
+    for poses in seq:
+        got = w.check_batch(Q, poses=poses)
+        assert (got == exact.check_batch(Q, poses=poses)).all(), poses
+        answers.append(bool(got.all()))
+    assert answers == [True, False, True, False, True, False, True]
+    kept = dict(w.batch._fixed_pair)
+    w.batch._fixed_of.clear()             # the placements forgotten, the pairs' answers kept
+    w.exact.fixed = None
+    asked = []
+    real = w.exact.depth
+    w.exact.depth = lambda a, b: asked.append((a, b)) or real(a, b)
+    for poses in seq:
+        assert (w.check_batch(Q, poses=poses) == exact.check_batch(Q, poses=poses)).all()
+    assert asked == [] and w.batch._fixed_pair == kept
+
+
 def test_pairs_sure_to_collide_collide_in_exact_fcl(pr2_mobile):
     """The pairs the pass marks sure to collide (a link mesh's hull vertex deeper than the
     tolerance + SURE_DEPTH inside a box, settled with no fcl query) are colliding pairs of exact
