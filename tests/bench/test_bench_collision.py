@@ -98,6 +98,11 @@ def test_pr2_clutter_collision_throughput():
     cand = fp.candidates(chunk, plan)
     t_conf = CHUNK / _rate(lambda: fast._confirm(cand, plan, False), CHUNK, 7)
 
+    # one state a call, as OMPL's planners ask (per call: the pair tables, the pass, fcl)
+    one = Q[valid][:300]
+    assert all(fast.check_batch(q[None])[0] for q in one[:20])
+    t_one = 1e6 / _rate(lambda: [fast.check_batch(q[None]) for q in one], len(one), 5)
+
     # motion validation: straight motions from free states, 0.02 rad/m per step
     free = Q[valid][:200]
     goal = free + rng.normal(size=free.shape) * 0.15
@@ -133,6 +138,7 @@ def test_pr2_clutter_collision_throughput():
           "| the same, the artifact's JAX kernel | "
           + " / ".join(f"{v:.1f}" for v in jax_curve.values()) + " µs |\n"
           f"| time per state: fcl confirmation of candidates | {t_conf * us:.1f} µs |\n"
+          f"| one free state a call (OMPL's validity checks) | {t_one:.0f} µs a call |\n"
           f"| motion validation ({len(motions)} motions, {steps} steps) | "
           f"{1e3 * motion_time / length:.1f} ms per metre of joint-space path "
           f"({steps / length:.0f} steps/m) |")
