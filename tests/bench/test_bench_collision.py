@@ -96,7 +96,7 @@ def test_pr2_clutter_collision_throughput():
         jax_curve[n] = 1e6 / _rate(lambda n=n: jax_fk(Q[:n])[0].block_until_ready(), n, 7)
     t_pass = CHUNK / _rate(lambda: fp.candidates(chunk, plan), CHUNK, 7)
     cand = fp.candidates(chunk, plan)
-    t_conf = CHUNK / _rate(lambda: fast._confirm(cand, plan, False), CHUNK, 7)
+    t_conf = CHUNK / _rate(lambda: fast.batch.confirm(cand, plan, False), CHUNK, 7)
 
     # one state a call, as OMPL's planners ask (per call: the pair tables, the pass, fcl)
     one = Q[valid][:300]
