@@ -471,10 +471,9 @@ class DecoupledPlanner:
         if not self.opt.lookahead or action is None:
             return self.transition_samples(mode, action, q, tr)
         todo = self.transition_samples(mode, action, q, tr, keep=PROJECTION_BATCH)
-        return self.looking_ahead(steps, i, mode, todo, self.opt.samples)[:self.opt.samples]
+        return self.looking_ahead(steps, i, mode, todo)[:self.opt.samples]
 
-    def looking_ahead(self, steps: list, i: int, mode: Mode, todo: list,
-                      need: int | None = None) -> list:
+    def looking_ahead(self, steps: list, i: int, mode: Mode, todo: list) -> list:
         """``todo`` (step ``i``'s configurations in ``mode``) reordered by the plan's next step
         ``j`` on the object step ``i`` grasps or releases: first the configurations after
         which ``j``'s precondition holds collision-free (projected from each, one batch),
@@ -482,9 +481,7 @@ class DecoupledPlanner:
         first). ``j`` is looked at when it comes next, or when step ``i`` puts the object
         down, the hands are empty after it and ``j`` only grasps it (a block put on the
         table for the other arm to take: the steps between cannot move it). A
-        configuration is never dropped, only tried later. ``need``: the caller takes only
-        the first ``need``; once that many are found good (the first ``need`` of the
-        order whatever the rest score), the rest are not looked at and keep their order."""
+        configuration is never dropped, only tried later."""
         p = self.p
         if len(todo) < 2:
             return todo
@@ -510,9 +507,6 @@ class DecoupledPlanner:
             return todo
         score = []
         for k, c in enumerate(todo):
-            if need is not None and score.count(0) >= need:
-                score += [3] * (len(todo) - k)     # after the good ones, in their order
-                break
             succ = first if k == 0 else p.successor_mode(mode, action, c, -1)
             starts = self.starts_around(c, self.ahead_rng)
             Qp, holds, _ = p.project_raw(succ, later, starts,
