@@ -44,16 +44,9 @@ class PairTable:
     dist: np.ndarray             # (prod n,)
 
     def free(self, Q: np.ndarray) -> np.ndarray:
-        """(B,) bool: the pair certainly does not touch in states Q (B, n)."""
-        x = Q[:, self.cols]
-        span = np.where(self.wrap, 2 * np.pi, 1.0)
-        x = np.where(self.wrap, (x - self.lo) % span + self.lo, x)
-        idx = np.rint((x - self.lo) / self.step).astype(np.int64)
-        idx = np.where(self.wrap, idx % self.n, np.clip(idx, 0, self.n - 1))
-        dev = np.abs(x - (self.lo + idx * self.step))
-        dev = np.where(self.wrap, np.minimum(dev, 2 * np.pi - dev), dev)
-        flat = np.ravel_multi_index(tuple(idx.T), tuple(self.n))
-        return self.dist[flat] > (self.rate * dev).sum(1)
+        """(B,) bool: the pair certainly does not touch in states Q (B, n)
+        (:meth:`PairTables.free` of this table alone)."""
+        return PairTables.of([self]).free(Q)[0]
 
     @staticmethod
     def build(world: PassGeometry, kinematics: Callable, ga: int,
