@@ -31,6 +31,7 @@ from tmpc.runtime.collision.spheres import (
     cover,
     hull_points,
     inflate,
+    mesh_parts,
     ragged,
 )
 from tmpc.runtime.collision.store import TABLE_FIELDS, FirstPassStore, robot_key
@@ -94,6 +95,8 @@ class Plan:
     # are its hull's vertices, obstacle w a box primitive of half-extents box_x[w] (else -1)
     sure_ok: np.ndarray          # (M,) bool
     box_x: np.ndarray            # (W, 3)
+    #: an obstacle is more than one row (a hollow mesh's parts): a pair may come out twice
+    split: bool = False
 
 
 @dataclass
@@ -144,6 +147,7 @@ class FirstPass:
         self._tables: dict = {}
         self._table_sets: dict = {}
         self._link_parts: dict = {}
+        self._parts: dict = {}
 
     def plan(self, place: "dict[int, Placement]", allowed: np.ndarray, key=None) -> Plan:
         """The plan of a batch (cached: motions reuse it). ``key``: the world's key of this
@@ -184,25 +188,46 @@ class FirstPass:
         mm = np.stack([mpos[pairs[ma & mb, 0]], mpos[pairs[ma & mb, 1]]], 1).reshape(-1, 2)
         one = pairs[ma ^ mb]
         one = np.where(ma[ma ^ mb][:, None], one, one[:, ::-1])   # moving geometry first
-        box_geom = np.unique(one[:, 1])
-        boxes = [self._world_box(int(g), world_T[int(g)]) for g in box_geom]
-        bb_w = np.searchsorted(box_geom, one[:, 1]).astype(np.int64)
-        bb_m = mpos[one[:, 0]].astype(np.int64)
+        # the obstacles: one each, a hollow mesh one per part (:func:`mesh_parts`), its pairs
+        # once per part
+        obstacles = np.unique(one[:, 1])
+        parts = [self._obstacle_parts(int(g)) for g in obstacles]
+        rows = np.array([1 if x is None else len(x[0]) for x in parts], np.int64)
+        first = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64)
+        box_geom = np.repeat(obstacles, rows)
+        boxes, placed = [], []
+        for g, x in zip(obstacles.tolist(), parts):
+            T = world_T[g]
+            if x is None:
+                boxes.append(self._world_box(g, T))
+                placed.append(self._placed_hull(g, T))
+                continue
+            c, h, pts, start, r = x
+            R, t = T[:3, :3], T[:3, 3]
+            for i in range(len(c)):
+                boxes.append((R, R @ c[i] + t, h[i], 0.0))
+                placed.append((pts[start[i]:start[i + 1]] @ R.T + t, np.zeros((0, 3)),
+                               float(r[i])))
+        at = np.searchsorted(obstacles, one[:, 1])
+        per = rows[at]
+        bb_w = (np.repeat(first[at], per) + np.arange(per.sum())
+                - np.repeat(np.cumsum(per) - per, per)).astype(np.int64)
+        bb_m = np.repeat(mpos[one[:, 0]], per).astype(np.int64)
         M = len(mv)
         lm = local[moving]
         cov_c, cov_r = np.zeros((M, self.K, 3)), np.full((M, self.K), NEVER)
         ball_c, ball_r = np.zeros((M, 3)), np.zeros(M)
-        parts = [self._moving_part(int(g), L) for g, L in zip(mv, lm)]
+        moving_parts = [self._moving_part(int(g), L) for g, L in zip(mv, lm)]
         for i, g in enumerate(mv):
             r = self.covers[g][1]
-            cov_c[i, :len(r)] = parts[i][0]
+            cov_c[i, :len(r)] = moving_parts[i][0]
             cov_r[i, :len(r)] = r
-            ball_c[i] = parts[i][1]
+            ball_c[i] = moving_parts[i][1]
             ball_r[i] = self.balls[g][1]
         arr = [np.array([b[j] for b in boxes]).reshape((-1,) + shp)
                for j, shp in enumerate(((3, 3), (3,), (3,), ()))]
         gm = [w.geoms[g] for g in mv]
-        obb_c = np.array([part[2] for part in parts])
+        obb_c = np.array([part[2] for part in moving_parts])
         obb_h = np.array([inflate(g.aabb_half) for g in gm])
         tables, table_of, table_set = self._tables_of(mv[mm])
         order = np.argsort(bb_w, kind="stable")             # the pass visits pairs box by box
@@ -211,8 +236,7 @@ class FirstPass:
         box_R, box_t, box_h, box_r = arr
         box_half = (np.abs(box_R) @ box_h[..., None])[..., 0] + box_r[:, None]
         ncov = np.array([len(self.covers[g][1]) for g in mv], np.int64)
-        convex = [part[3] for part in parts] + \
-            [self._placed_hull(int(g), world_T[int(g)]) for g in box_geom]
+        convex = [part[3] for part in moving_parts] + placed
         hull_p, hull_s = ragged([h[0] for h in convex])
         all_p, all_s = ragged([h[1] for h in convex])
         sure_ok = np.array([w.geoms[g].hull is not None and w.geoms[g].mesh is not None
@@ -231,7 +255,7 @@ class FirstPass:
                     tables=tables, table_set=table_set,
                     hull_p=hull_p, hull_s=hull_s, all_p=all_p, all_s=all_s,
                     hull_r=np.array([h[2] for h in convex], float), sure_ok=sure_ok,
-                    box_x=box_x)
+                    box_x=box_x, split=bool((rows > 1).any()))
 
     def _moving_part(self, g: int, L: np.ndarray) -> tuple:
         """Moving geometry g's cover centres, ball centre, box centre and placed hull
@@ -247,6 +271,15 @@ class FirstPass:
         if link:
             self._link_parts[g] = part
         return part
+
+    def _obstacle_parts(self, g: int):
+        """Geometry g's parts as an obstacle (:func:`mesh_parts`: a hollow mesh's; None for
+        a robot link and any other geometry), made once."""
+        if g not in self._parts:
+            geom = self.geometry.geoms[g]
+            self._parts[g] = None if self.geometry.is_link(g) else \
+                mesh_parts(geom.shape, geom.mesh, self.store)
+        return self._parts[g]
 
     def _tables_of(self, pairs: np.ndarray) -> tuple:
         """The pair tables of the moving pairs ``pairs`` (P, 2) (global ids): ``(row in
@@ -340,4 +373,10 @@ class FirstPass:
                 break
             cap *= 4
         s, a, b, f = (o[:got] for o in out)
+        if plan.split and got > 1:      # a pair two parts of a hollow mesh left: once
+            G = len(self.geometry.geoms)
+            _, keep = np.unique((s * G + a) * G + b, return_index=True)
+            if len(keep) < got:
+                keep.sort()
+                s, a, b, f = s[keep], a[keep], b[keep], f[keep]
         return Candidates(s, a, b, R, p, coarse, covers, f)

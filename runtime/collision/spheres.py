@@ -309,6 +309,110 @@ def _stored_outside(mesh: MeshData, store) -> float:
     return float(got["d"])
 
 
+#: a watertight mesh whose volume is below this share of its convex hull's is hollow (a
+#: table's top on legs, an arena's wall around the floor): the first pass sees it as parts
+#: (:func:`mesh_parts`), and a part is halved again while its own share is below it
+HOLLOW = 0.5
+#: halvings of a hollow mesh at most (at most 2**PARTS_DEPTH parts)
+PARTS_DEPTH = 6
+
+
+def mesh_parts(shape: Shape, mesh: MeshData | None, store=None):
+    """A hollow mesh's parts (:data:`HOLLOW`), the first pass's view of it as an obstacle:
+    ``(centers (P, 3), half-extents (P, 3), hull points (N, 3), starts (P + 1,), radii (P,))``
+    in the geometry's frame, part i's hull points ``points[starts[i]:starts[i + 1]]`` grown by
+    its radius (how far qhull left a vertex outside); None for any other geometry. The mesh is
+    cut in halves across its box's longest side, triangles cut where the plane crosses them,
+    until each part's hull holds at most twice its share of the mesh's volume (by area).
+    Every triangle of the mesh lies in the parts' triangles, so in their boxes and hulls: a
+    geometry that touches the mesh touches a part, and fcl's answer for a mesh is its surface's
+    (a BVH: docs/collision.md). Sort Clutter's arena, a wall 0.4 m high 2.75 m around the
+    floor, has a hull the robot never leaves, and its pairs were 94-97% of the exact queries
+    of a run (docs/collision.md, "Hollow meshes"). None too when the cut parts' area is not the
+    mesh's (a triangle lost on a cut plane). ``store``: a
+    :class:`~tmpc.runtime.collision.store.FirstPassStore` keeping them between runs."""
+    if shape.kind != "mesh" or mesh is None:
+        return None
+    if store is None:
+        return _mesh_parts(mesh)
+    name = "parts/" + mesh_key(mesh.vertices, mesh.faces, HOLLOW, PARTS_DEPTH)
+    got = store.get(name)
+    if got is None:
+        parts = _mesh_parts(mesh)
+        store.put(name, {"none": np.zeros(0)} if parts is None else
+                  dict(zip(("c", "h", "p", "s", "r"), parts)))
+        return parts
+    return None if "none" in got else (got["c"], got["h"], got["p"], got["s"], got["r"])
+
+
+def _mesh_parts(mesh: MeshData):
+    import trimesh
+
+    m = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+    if not m.is_watertight or m.area <= 0:
+        return None
+    volume = abs(float(m.volume))
+    if volume >= HOLLOW * _hull_volume(m.vertices):
+        return None
+    leaves = _halves(m, volume / m.area, 0)
+    if len(leaves) < 2 or abs(sum(x.area for x in leaves) - m.area) > 1e-9 * max(m.area, 1.0):
+        return None
+    c, h, pts, r = [], [], [], []
+    for x in leaves:
+        V = np.asarray(x.vertices, float)
+        lo, hi = V.min(0), V.max(0)
+        c.append((lo + hi) / 2)
+        h.append(inflate((hi - lo) / 2))
+        H, out = _hull_vertices(V)
+        pts.append(H)
+        r.append(float(inflate(out)))
+    p, start = ragged(pts)
+    return np.array(c), np.array(h), p, start, np.array(r)
+
+
+def _halves(m, density: float, depth: int) -> list:
+    """``m`` cut in halves (:func:`mesh_parts`) until each part's hull holds at most twice its
+    area's share of the volume (``density``: volume per area), or :data:`PARTS_DEPTH`."""
+    import trimesh
+
+    if depth >= PARTS_DEPTH or density * m.area >= HOLLOW * _hull_volume(m.vertices):
+        return [m]
+    lo, hi = m.bounds
+    axis = np.zeros(3)
+    axis[int(np.argmax(hi - lo))] = 1.0
+    out = []
+    for normal in (axis, -axis):
+        half = trimesh.intersections.slice_mesh_plane(m, normal, (lo + hi) / 2, cap=False)
+        if half is not None and len(half.faces):
+            out += _halves(half, density, depth + 1)
+    return out
+
+
+def _hull_volume(V: np.ndarray) -> float:
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return float(ConvexHull(V).volume)
+    except (QhullError, ValueError):
+        return 0.0                     # flat: no volume to save
+
+
+def _hull_vertices(V: np.ndarray) -> tuple[np.ndarray, float]:
+    """The vertices of ``V``'s convex hull (all of ``V`` when flat) and how far a point of
+    ``V`` lies outside its facets (0 when flat); no points (no convex stage) past
+    :data:`HULL_POINTS_MAX`."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(V)
+    except (QhullError, ValueError):
+        H, out = V, 0.0
+    else:
+        H = V[hull.vertices]
+        out = max(float((V @ hull.equations[:, :3].T + hull.equations[:, 3]).max()), 0.0)
+    return (H, out) if len(H) <= HULL_POINTS_MAX else (np.zeros((0, 3)), 0.0)
+
+
 def ragged(parts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Point sets as one (P, 3) array and their starts (len(parts) + 1,)."""
     start = np.zeros(len(parts) + 1, np.int64)

@@ -5,6 +5,7 @@ the sound first pass against exact fcl, and agreement with an independent implem
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import fcl  # python-fcl: a runtime dependency (pyproject), so no skip without it
 import numpy as np
@@ -1047,3 +1048,94 @@ def test_the_jit_answers_as_the_built_module_and_exact_fcl(pr2_mobile, monkeypat
     for how in got:
         assert (got[how][0] == truth[0]).all() and (got[how][1] == truth[1]).all(), how
         assert got[how][2] == truth[2], how
+
+
+LAGRIFFOUL = Path(__file__).resolve().parents[2] / "examples" / "lagriffoul" / "data"
+
+
+def _hollow_meshes():
+    """Sort Clutter's arena (a wall 0.4 m high around the floor), shrunk to a 2.5 m square,
+    and one of its tables (a top on four legs) beside the origin."""
+    arena = Shape("mesh", mesh=LAGRIFFOUL / "problem3/clutter_meshes/arena.obj",
+                  scale=(0.45, 0.45, 1.0))
+    table = Shape("mesh", mesh=LAGRIFFOUL / "problem3/clutter_meshes/table.obj")
+    return [SceneObject("arena", Pose((0.0, 0.0, 0.2)), False, arena),
+            SceneObject("table", Pose.from_xyz_yaw(0.0, 0.75, 0.0, 0.0), False, table)]
+
+
+def test_a_hollow_mesh_is_cut_into_parts_that_hold_its_whole_surface():
+    """mesh_parts: the arena and a table come out in parts whose triangles are the mesh's
+    (the same area; every vertex in a part's box and hull), whose hulls hold a fraction of
+    the mesh's hull; a solid mesh (a stick) has none."""
+    from scipy.spatial import ConvexHull, Delaunay
+
+    from tmpc.runtime.collision.geometry import load_mesh
+    from tmpc.runtime.collision.spheres import mesh_parts
+    for name, at_most in (("arena", 0.1), ("table", 0.2)):
+        shape = Shape("mesh", mesh=LAGRIFFOUL / f"problem3/clutter_meshes/{name}.obj")
+        mesh = load_mesh(shape.mesh)
+        c, h, pts, start, r = mesh_parts(shape, mesh)
+        assert 2 <= len(c) <= 64 and len(start) == len(c) + 1 and (r < 1e-6).all()
+        hulls = [pts[start[i]:start[i + 1]] for i in range(len(c))]
+        whole = ConvexHull(mesh.vertices).volume
+        assert sum(ConvexHull(H).volume for H in hulls) < at_most * whole
+        inside = np.zeros(len(mesh.vertices), bool)
+        for ci, hi, H in zip(c, h, hulls):
+            in_box = (np.abs(mesh.vertices - ci) <= hi + 1e-9).all(axis=1)
+            inside |= in_box & (Delaunay(H).find_simplex(mesh.vertices, tol=1e-9) >= 0)
+        assert inside.all()
+        # every point of the surface: points drawn on the triangles lie in some part
+        rng = np.random.default_rng(3)
+        tri = mesh.vertices[mesh.faces]
+        u = rng.dirichlet(np.ones(3), len(tri) * 20)
+        P = np.einsum("nk,nkd->nd", u, np.repeat(tri, 20, axis=0))
+        hit = np.zeros(len(P), bool)
+        for ci, hi, H in zip(c, h, hulls):
+            hit |= ((np.abs(P - ci) <= hi + 1e-9).all(axis=1)
+                    & (Delaunay(H).find_simplex(P, tol=1e-9) >= 0))
+        assert hit.all()
+    stick = Shape("mesh", mesh=LAGRIFFOUL / "problem3/clutter_meshes/stick_red.obj")
+    assert mesh_parts(stick, load_mesh(stick.mesh)) is None
+    assert mesh_parts(Shape("box", size=(1, 1, 1)), None) is None
+
+
+def test_first_pass_by_parts_of_hollow_meshes_equals_exact_fcl_with_fewer_candidates(
+        pr2_mobile, monkeypatch):
+    """A mobile PR2 inside an arena wall, beside a table (hollow meshes, seen by parts): the
+    batched checks equal exact fcl on every random state and motion, every colliding pair is a
+    candidate, and the pass leaves far fewer pairs than it did seeing each mesh whole."""
+    from tmpc.runtime.collision import CollisionWorld, first_pass
+    model, fk = pr2_mobile
+    sc = mobile_scene(model, _hollow_meshes() + [box("stick", (0.0, 0.75, 0.93),
+                                                     (0.02, 0.02, 0.15), True)])
+    w, exact = CollisionWorld(sc, model), CollisionWorld(sc, model, first_pass=False)
+    rng = np.random.default_rng(5)
+    Q = random_states(model, rng, 2000)
+    held = {"stick": (TOOL, np.eye(4))}
+    for att in (None, held):
+        batch, truth = w.check_batch(Q, attached=att), exact.check_batch(Q, attached=att)
+        assert (batch == truth).all(), np.nonzero(batch != truth)
+        assert 0.1 < (~truth).mean() < 0.9
+    A, B = random_motions(model, rng, 60, 0.3)
+    got = w.check_segments([(np.vstack([w.interpolate(a, b, 0.05) for a, b in zip(A, B)]),
+                             None, None, np.array([len(w.interpolate(a, b, 0.05))
+                                                   for a, b in zip(A, B)]))])[0]
+    want = [exact.check_batch(w.interpolate(a, b, 0.05)).all() for a, b in zip(A, B)]
+    assert (got == np.array(want)).all() and got.any() and not got.all()
+    fp = w.first_pass()
+    place, allowed = w.placements(attached=held)
+    plan = fp.plan(place, allowed)
+    assert plan.split and len(plan.box_geom) > len(set(plan.box_geom.tolist())) + 20
+    cand = fp.candidates(Q[:500], plan)
+    body = lambda g: w.bodies[w.geoms[g].body].name
+    keys = list(zip(cand.states.tolist(), cand.ga.tolist(), cand.gb.tolist()))
+    assert len(keys) == len(set(keys))                    # a pair two parts left: once
+    pairs = {(s, frozenset((body(a), body(b)))) for s, a, b in keys}
+    missing = [(i, a, b) for i in range(500) for a, b, _ in w.check(Q[i], attached=held).pairs
+               if (i, frozenset((a, b))) not in pairs and "stick" not in (a, b)]
+    assert missing == []
+    monkeypatch.setattr(first_pass, "mesh_parts", lambda *a: None)
+    whole = CollisionWorld(sc, model).first_pass()
+    plan = whole.plan(place, allowed)
+    assert not plan.split
+    assert len(cand.states) < 0.5 * len(whole.candidates(Q[:500], plan).states)
