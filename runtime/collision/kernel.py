@@ -36,10 +36,13 @@ PASS_KERNEL = Kernel("tmpc.runtime.collision.pass_kernel", (
     ("kinematics",
      ("void(f8[:,::1], i8[::1], i8[::1], f8[:,:,::1], f8[:,::1], i8[::1], f8[:,::1], i8[::1], "
       "f8[::1], f8[::1], i8, b1, f8[:,::1], f8[::1], f8[:,::1], f8, i8[::1], f8[:,:,:,::1], "
-      "f8[:,:,::1])"))), nrt=False)
+      "f8[:,:,::1])")),
+    ("table_free",
+     ("void(f8[:,::1], i8[:,::1], f8[:,::1], f8[:,::1], i8[:,::1], b1[:,::1], f8[:,::1], "
+      "i8[::1], f8[::1], b1[:,::1])"))), nrt=False)
 #: the kernels in use ("candidates", "kinematics": functions of the built module or of numba's
 #: JIT) and why the JIT (None: the built module)
-KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "why": None}
+KERNEL_STATE: dict = {"candidates": None, "kinematics": None, "table_free": None, "why": None}
 
 
 def empty_pass_args() -> tuple:
@@ -80,7 +83,8 @@ def pass_kernel(name: str = "candidates"):
     if KERNEL_STATE[name] is None:
         module, why = aot.obtain(PASS_KERNEL)
         if module is not None:
-            KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics)
+            KERNEL_STATE.update(candidates=module.candidates, kinematics=module.kinematics,
+                                table_free=module.table_free)
         else:
             say = why.startswith("the ahead-of-time build failed:") or "rebuilt" in why
             use_jit(why, f"{why}; using numba's JIT instead (about 0.5 s more setup and 140 MB "
@@ -95,7 +99,8 @@ def use_jit(why: str, warning: str | None) -> None:
     from tmpc.runtime.collision import pass_kernel as jit
     if warning is not None:
         warnings.warn(f"collision pass: {warning}", stacklevel=3)
-    KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics, why=why)
+    KERNEL_STATE.update(candidates=jit.candidates, kinematics=jit.kinematics,
+                        table_free=jit.table_free, why=why)
 
 
 def load_kernel() -> str | None:

@@ -10,12 +10,13 @@ approach (docs/collision.md, "Pair tables"). The first pass
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from tmpc.runtime.collision.geometry import PassGeometry
+from tmpc.runtime.collision.kernel import fall_back, pass_kernel
 from tmpc.runtime.collision.spheres import SLACK
 
 
@@ -121,9 +122,10 @@ class PairTable:
 @dataclass
 class PairTables:
     """Several :class:`PairTable` read at once: :meth:`free` is every table's
-    :meth:`PairTable.free`, row by row, in a dozen array operations whatever their number (the
+    :meth:`PairTable.free`, row by row, in one compiled call whatever their number (the
     PR2's first pass reads 18 tables per call, and a call of one state, OMPL's, spent more
-    time in their loop than in the compiled pass). A one-coordinate table is padded to two
+    time in their loop than in the compiled pass; then in the dozen numpy calls of
+    :meth:`free_numpy`). A one-coordinate table is padded to two
     with a coordinate of one cell and rate 0, so its index and bound are unchanged."""
 
     cols: np.ndarray             # (T, 2)
@@ -134,6 +136,7 @@ class PairTables:
     rate: np.ndarray             # (T, 2)
     start: np.ndarray            # (T,) where table t's cells begin in ``dist``
     dist: np.ndarray             # (sum of cells,)
+    _args: tuple | None = field(default=None, repr=False, compare=False)
 
     @staticmethod
     def of(tables: list[PairTable]) -> "PairTables":
@@ -150,7 +153,25 @@ class PairTables:
                           dist=np.concatenate([t.dist for t in tables] + [np.zeros(0)]))
 
     def free(self, Q: np.ndarray) -> np.ndarray:
-        """(T, B) bool: table t's pair certainly does not touch in state b of Q (B, n)."""
+        """(T, B) bool: table t's pair certainly does not touch in state b of Q (B, n): one
+        compiled call (:func:`~tmpc.runtime.collision.pass_kernel.table_free`; the numpy
+        formula, :meth:`free_numpy`, took a dozen array calls, most of a one-state check)."""
+        Q = np.ascontiguousarray(np.asarray(Q, float).reshape(len(Q), -1))
+        out = np.empty((len(self.start), len(Q)), bool)
+        if not len(self.start) or not len(Q):
+            return out
+        if self._args is None:
+            self._args = tuple(np.ascontiguousarray(a) for a in (
+                self.cols, self.lo, self.step, self.n, self.wrap, self.rate, self.start,
+                self.dist))
+        try:
+            pass_kernel("table_free")(Q, *self._args, out)
+        except TypeError as exc:        # the built module refused (kernel.fall_back)
+            fall_back(exc, "table_free")(Q, *self._args, out)
+        return out
+
+    def free_numpy(self, Q: np.ndarray) -> np.ndarray:
+        """:meth:`free` in numpy (the reference its test holds the kernel to)."""
         if not len(self.start):
             return np.zeros((0, len(Q)), bool)
         x = np.asarray(Q)[:, self.cols]                          # (B, T, 2)

@@ -16,7 +16,7 @@ ball take part), or a cover ball meeting the obstacle box; (4) the convex stage:
 convex hulls finding no plane that separates them by more than :data:`HULL_GAP` (:func:`apart`;
 the plane it finds is checked directly on the points, so the stage rests on no tolerance of
 GJK's). Pairs whose :class:`tmpc.runtime.collision.pair_table.PairTable` proves them free skip
-the stages (the tables are read in numpy before the call).
+the stages (the tables are read before the call, by :func:`table_free`).
 
 The module is built without numba's reference counting (the scratch arrays come from the
 caller): with it, each call of a helper taking arrays (~40 per GJK) takes an atomic incref and
@@ -473,3 +473,35 @@ def kinematics(Q, parent, child, origin_R, origin_p, kind, axis, source, scale, 
                 R[c_, i, 1, b] = x1 + y1 * sv + z1 * cv
                 R[c_, i, 2, b] = x2 + y2 * sv + z2 * cv
 
+
+
+@numba.njit(cache=True, nogil=True)
+def table_free(Q, cols, lo, step, n, wrap, rate, start, dist, out):
+    """:meth:`tmpc.runtime.collision.pair_table.PairTables.free` of states Q (B, n) into out
+    (T, B): table t's pair certainly does not touch in state b. Table t reads coordinates
+    cols[t] (two; a one-coordinate table is padded with a coordinate of one cell and rate 0)
+    on a grid from lo[t] by step[t], n[t] cells a side, wrapping where wrap[t] (2 pi); its
+    distance bounds are dist[start[t]:], row-major. The numbers are the numpy formula's, one
+    state and table at a time (a one-state call costs a microsecond, not a dozen numpy
+    calls)."""
+    two_pi = 2.0 * math.pi
+    for t in range(len(start)):
+        for b in range(Q.shape[0]):
+            flat = start[t]
+            bound = 0.0
+            for k in range(2):
+                x = Q[b, cols[t, k]]
+                lo_k, step_k = lo[t, k], step[t, k]
+                if wrap[t, k]:
+                    x = (x - lo_k) % two_pi + lo_k
+                i = np.int64(np.rint((x - lo_k) / step_k))
+                if wrap[t, k]:
+                    i = i % n[t, k]
+                else:
+                    i = min(max(i, 0), n[t, k] - 1)
+                dev = abs(x - (lo_k + i * step_k))
+                if wrap[t, k]:
+                    dev = min(dev, two_pi - dev)
+                bound += rate[t, k] * dev
+                flat += i * n[t, 1] if k == 0 else i
+            out[t, b] = dist[flat] > bound

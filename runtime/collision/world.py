@@ -145,10 +145,14 @@ class CollisionWorld:
         the key is the content of ``poses`` and ``attached``, so a caller may pass fresh or
         mutated dicts. Input :meth:`placements` rejects gets its error, uncached."""
         try:
-            key = (tuple((str(n), np.asarray(T, float).tobytes())
-                         for n, T in sorted((poses or {}).items())),
+            names = sorted(poses or {})
+            held = sorted((attached or {}).items())
+            # the poses' bytes in one array (a key of 34 objects, one by one, cost most of a
+            # one-state check of Sort Clutter)
+            key = (tuple(map(str, names)),
+                   np.array([poses[n] for n in names], float).tobytes() if names else b"",
                    tuple((str(n), str(v[0]), np.asarray(v[1], float).tobytes())
-                         for n, v in sorted((attached or {}).items())))
+                         for n, v in held))
         except (TypeError, ValueError, IndexError):
             return None, self.placements(poses, attached)
         got = self._placements.pop(key, None)
@@ -251,6 +255,12 @@ class CollisionWorld:
                        ).astype(np.int64)
         cut = 0 if ends else 1
         lens = n + 1 - 2 * cut
+        if len(n) == 1:                            # one motion (OMPL's): the same numbers
+            j = np.arange(cut, n[0] + 1 - cut, dtype=float)
+            frac = j * (1.0 / n[0])
+            if not cut:
+                frac[-1] = 1.0
+            return A[0] + frac[:, None] * d[0], lens
         row = np.repeat(np.arange(len(n)), lens)
         first = np.cumsum(lens) - lens
         j = (np.arange(len(row)) - first[row] + cut).astype(float)

@@ -43,12 +43,14 @@ def test_a_damaged_module_is_removed_and_the_jit_used(kernel, monkeypatch):
     module, why = aot.obtain(k)
     assert module is None and "did not load" in why and not k.path().exists()
     monkeypatch.setattr(kernel_loader, "KERNEL_STATE",
-                        {"candidates": None, "kinematics": None, "why": None})
+                        {"candidates": None, "kinematics": None, "table_free": None,
+                         "why": None})
     monkeypatch.setattr(aot, "obtain", lambda kernel: (None, why))
     with pytest.warns(UserWarning, match="using numba's JIT"):
         fn = kernel_loader.pass_kernel()
     from tmpc.runtime.collision import pass_kernel as jit
     assert fn is jit.candidates and kernel_loader.pass_kernel("kinematics") is jit.kinematics
+    assert kernel_loader.pass_kernel("table_free") is jit.table_free
 
 
 def test_reference_counting_is_part_of_a_build_s_name(kernel):
@@ -94,7 +96,8 @@ def test_a_call_the_built_module_refuses_goes_to_the_jit(monkeypatch):
         raise TypeError("No matching definition for argument type(s) array(int32, 1d, C)")
 
     monkeypatch.setattr(kernel_loader, "KERNEL_STATE",
-                        {"candidates": picky, "kinematics": picky, "why": None})
+                        {"candidates": picky, "kinematics": picky, "table_free": picky,
+                         "why": None})
     with pytest.warns(UserWarning, match="refused a call"):
         kernel = kernel_loader.fall_back(TypeError("int32"))
     assert kernel is jit.candidates and kernel_loader.pass_kernel() is jit.candidates

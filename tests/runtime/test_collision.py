@@ -768,7 +768,7 @@ def _one_table_free(t, Q):
 
 
 def test_pair_tables_read_at_once_answer_as_each_table():
-    """The stacked tables (one array call per first pass) answer exactly as each table alone,
+    """The stacked tables (one compiled call per first pass) answer exactly as each table alone,
     by the formula written out one table at a time: one- and two-coordinate tables, wrapping
     coordinates (states several turns away), states outside the limits and on grid
     points."""
@@ -788,11 +788,29 @@ def test_pair_tables_read_at_once_answer_as_each_table():
                                 rng.uniform(-0.01, 0.3, int(np.prod(n)))))
     Q = rng.uniform(-9, 9, (3000, 6))
     Q[:500] = np.round(Q[:500], 1)                 # some on grid lines and cell borders
-    stacked = PairTables.of(tables).free(Q)
+    stacked = PairTables.of(tables)
     each = np.stack([_one_table_free(t, Q) for t in tables])
-    assert stacked.shape == each.shape == (5, 3000)
-    assert (stacked == each).all() and 0.05 < each.mean() < 0.95
+    assert stacked.free(Q).shape == each.shape == (5, 3000)
+    assert (stacked.free(Q) == each).all() and 0.05 < each.mean() < 0.95
+    assert (stacked.free_numpy(Q) == each).all()
+    assert (np.stack([stacked.free(q[None])[:, 0] for q in Q[:200]], 1) == each[:, :200]).all()
     assert PairTables.of([]).free(Q).shape == (0, 3000)
+    # the module built ahead of time takes exactly what free passes, as numba's JIT does
+    import numba
+
+    from tmpc.compiler import aot
+    from tmpc.runtime.collision import kernel
+    from tmpc.runtime.collision import pass_kernel as jit
+    module, why = aot.obtain(kernel.PASS_KERNEL)
+    assert module is not None, why
+    sig = numba.core.sigutils._parse_signature_string(dict(kernel.PASS_KERNEL.exports)
+                                                      ["table_free"])
+    args = (np.ascontiguousarray(Q), *stacked._args, np.empty((5, 3000), bool))
+    assert tuple(numba.typeof(a) for a in args) == tuple(sig.args)
+    for fn in (module.table_free, jit.table_free):
+        args[-1][:] = ~each
+        fn(*args)
+        assert (args[-1] == each).all()
 
 
 def test_pair_table_frees_only_pairs_that_do_not_touch(pr2):
@@ -1037,9 +1055,11 @@ def test_the_jit_answers_as_the_built_module_and_exact_fcl(pr2_mobile, monkeypat
     assert truth[0].any() and not truth[0].all()
     got = {}
     for how in ("built", "jit"):
-        state = {"candidates": module.candidates, "kinematics": module.kinematics, "why": None}
+        state = {"candidates": module.candidates, "kinematics": module.kinematics,
+                 "table_free": module.table_free, "why": None}
         if how == "jit":
-            state = {"candidates": jit.candidates, "kinematics": jit.kinematics, "why": "test"}
+            state = {"candidates": jit.candidates, "kinematics": jit.kinematics,
+                     "table_free": jit.table_free, "why": "test"}
         monkeypatch.setattr(kernel, "KERNEL_STATE", state)
         w = CollisionWorld(sc, model)
         got[how] = (w.check_batch(Q, attached=held), w.check_segments([group])[0],
