@@ -74,6 +74,8 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                        "docs/planning.md)"),
     "park_idle": (bool, "the decoupled planner puts the arm a step does not use back where "
                         "the run started it (default false; docs/planning.md)"),
+    "motion_budget": (float, "seconds the decoupled planner gives each motion (default 2; "
+                             "`tmpc run --motion-budget` overrides it; docs/planning.md)"),
     "motion_range": (float, "the longest edge (Euclidean over the configuration's "
                             "coordinates) OMPL's motion planner grows its trees by in the "
                             "decoupled planner (default 0: OMPL's own, a fifth of the space's "

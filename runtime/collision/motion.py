@@ -160,7 +160,7 @@ class BatchChecker:
         ranks = bisection_ranks(lens)
         probe = ranks < PROBE_STATES
         rounds = [None]
-        if len(Q) > PROBE_MIN and 2 * probe.sum() < len(Q):
+        if frames is None and len(Q) > PROBE_MIN and 2 * probe.sum() < len(Q):
             rounds = [probe, ~probe]
         for rows in rounds:
             if rows is not None:             # the states left of the motions still alive
@@ -397,7 +397,9 @@ class BatchChecker:
 #: order (the middle, then the middles of the halves), then the rest of the motions that held
 #: there (:meth:`BatchChecker.check_segments`), when that is under half the states and the
 #: batch has more than PROBE_MIN states: most motions a planner asks about collide, and the
-#: first pass had visited every state of each before exact fcl stopped at its first collision
+#: first pass had visited every state of each before exact fcl stopped at its first collision.
+#: Not in a call of several modes (the optimal planner's edges), whose kinematics is computed
+#: for every state at once: there the subsets' copies cost what the probe saved
 PROBE_STATES = 3
 PROBE_MIN = 32
 

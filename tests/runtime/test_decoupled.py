@@ -312,6 +312,30 @@ def test_lazy_motions_come_from_the_manifest():
     assert not opt.lazy_motions and not opt.lookahead and not opt.backjump
 
 
+def test_the_motion_budget_comes_from_the_manifest_and_the_command_line_wins():
+    """A manifest's ``[planner] motion_budget`` (Sort Clutter's 1 s) is each motion's budget;
+    ``--motion-budget`` overrides it; 2 s without either; 0 is E851."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
+
+    class World:
+        config = type("Config", (), {"params": (("motion_budget", 1.0),)})()
+
+    class Problem:
+        world = World()
+
+    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_budget == 1.0
+    over = {"motion_budget": 3.0}
+    assert DecoupledPlanner.from_options(Problem(), 0, over).opt.motion_budget == 3.0
+    assert DecoupledPlanner.from_options(Problem(), 0, {"motion_budget": None}).opt \
+        .motion_budget == 1.0
+    Problem.world.config = type("Config", (), {"params": ()})()
+    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_budget == 2.0
+    Problem.world.config = type("Config", (), {"params": (("motion_budget", 0.0),)})()
+    with pytest.raises(InputError) as err:
+        DecoupledPlanner.from_options(Problem(), 0, {})
+    assert err.value.diagnostics[0].code == "E851"
+
+
 def test_the_motion_range_comes_from_the_manifest_and_reaches_ompls_planner(tabletop_run,
                                                                              monkeypatch):
     """A manifest's ``[planner] motion_range`` is the longest edge OMPL's planner grows its

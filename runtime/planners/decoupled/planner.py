@@ -174,8 +174,8 @@ class DecoupledPlanner:
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "DecoupledPlanner":
         """The registry's factory: ``motion_planner``, ``motion_budget``, ``samples`` and
-        ``simplify`` from the command line (``samples``, ``min_steps``, ``max_steps`` also
-        from the run configuration's [planner]). E850 for an unknown motion planner, E851 for
+        ``simplify`` from the command line (``motion_budget``, ``samples``, ``min_steps``,
+        ``max_steps`` also from the run configuration's [planner]). E850 for an unknown motion planner, E851 for
         a value out of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
@@ -184,7 +184,8 @@ class DecoupledPlanner:
         opts = DecoupledOptions(
             motion_planner=check_motion_planner(str(over.get("motion_planner",
                                                              base.motion_planner))),
-            motion_budget=float(over.get("motion_budget", base.motion_budget)),
+            motion_budget=float(over.get("motion_budget",
+                                         params.get("motion_budget", base.motion_budget))),
             samples=int(over.get("samples", params.get("samples", base.samples))),
             shortcut=over.get("simplify", "tmpc") != "ompl",
             min_steps=int(params.get("min_steps", base.min_steps)),
