@@ -474,7 +474,6 @@ def kinematics(Q, parent, child, origin_R, origin_p, kind, axis, source, scale, 
                 R[c_, i, 2, b] = x2 + y2 * sv + z2 * cv
 
 
-
 @numba.njit(cache=True, nogil=True)
 def table_free(Q, cols, lo, step, n, wrap, rate, start, dist, out):
     """:meth:`tmpc.runtime.collision.pair_table.PairTables.free` of states Q (B, n) into out

@@ -378,11 +378,23 @@ def _halves(m, density: float, depth: int) -> list:
     if depth >= PARTS_DEPTH or density * m.area >= HOLLOW * _hull_volume(m.vertices):
         return [m]
     lo, hi = m.bounds
+    k = int(np.argmax(hi - lo))
     axis = np.zeros(3)
-    axis[int(np.argmax(hi - lo))] = 1.0
+    axis[k] = 1.0
+    # the plane through the middle, moved off every vertex (a triangle in the plane would be
+    # neither side's)
+    origin = (lo + hi) / 2
+    x = np.asarray(m.vertices, float)[:, k]
+    for shift in (0.0, 0.0037, -0.0061, 0.0113):
+        c = origin[k] + shift * (hi[k] - lo[k])
+        if not np.any(np.abs(x - c) <= 1e-9 * (hi[k] - lo[k])):
+            break
+    else:
+        return [m]
+    origin[k] = c
     out = []
     for normal in (axis, -axis):
-        half = trimesh.intersections.slice_mesh_plane(m, normal, (lo + hi) / 2, cap=False)
+        half = trimesh.intersections.slice_mesh_plane(m, normal, origin, cap=False)
         if half is not None and len(half.faces):
             out += _halves(half, density, depth + 1)
     return out
