@@ -163,15 +163,14 @@ class BatchChecker:
         if frames is None and len(Q) > PROBE_MIN and 2 * probe.sum() < len(Q):
             rounds = [probe, ~probe]
         for rows in rounds:
-            if rows is not None:             # the states left of the motions still alive
+            if rows is None:
+                Qr, sr, rr = Q, seg, ranks
+            else:                            # the states left of the motions still alive
                 rows = np.flatnonzero(rows & ~dead[seg])
                 if not len(rows):
                     break
-            Qr = Q if rows is None else Q[rows]
-            sr, rr = (seg, ranks) if rows is None else (seg[rows], ranks[rows])
-            fr = frames if rows is None or frames is None else \
-                tuple(f[..., rows] for f in frames)
-            for start, bad in self.invalid_states(Qr, place, allowed, False, key, fr,
+                Qr, sr, rr = Q[rows], seg[rows], ranks[rows]
+            for start, bad in self.invalid_states(Qr, place, allowed, False, key, frames,
                                                    (sr, rr, dead)):
                 dead[sr[start + bad]] = True
         return ~dead

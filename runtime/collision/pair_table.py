@@ -124,9 +124,9 @@ class PairTables:
     """Several :class:`PairTable` read at once: :meth:`free` is every table's
     :meth:`PairTable.free`, row by row, in one compiled call whatever their number (the
     PR2's first pass reads 18 tables per call, and a call of one state, OMPL's, spent more
-    time in their loop than in the compiled pass; then in the dozen numpy calls of
-    :meth:`free_numpy`). A one-coordinate table is padded to two
-    with a coordinate of one cell and rate 0, so its index and bound are unchanged."""
+    time in their loop than in the compiled pass, then in a dozen numpy calls). A
+    one-coordinate table is padded to two with a coordinate of one cell and rate 0, so its
+    index and bound are unchanged."""
 
     cols: np.ndarray             # (T, 2)
     lo: np.ndarray               # (T, 2)
@@ -154,8 +154,8 @@ class PairTables:
 
     def free(self, Q: np.ndarray) -> np.ndarray:
         """(T, B) bool: table t's pair certainly does not touch in state b of Q (B, n): one
-        compiled call (:func:`~tmpc.runtime.collision.pass_kernel.table_free`; the numpy
-        formula, :meth:`free_numpy`, took a dozen array calls, most of a one-state check)."""
+        compiled call (:func:`~tmpc.runtime.collision.pass_kernel.table_free`; the same formula
+        in numpy took a dozen array calls, most of a one-state check)."""
         Q = np.ascontiguousarray(np.asarray(Q, float).reshape(len(Q), -1))
         out = np.empty((len(self.start), len(Q)), bool)
         if not len(self.start) or not len(Q):
@@ -170,19 +170,6 @@ class PairTables:
             fall_back(exc, "table_free")(Q, *self._args, out)
         return out
 
-    def free_numpy(self, Q: np.ndarray) -> np.ndarray:
-        """:meth:`free` in numpy (the reference its test holds the kernel to)."""
-        if not len(self.start):
-            return np.zeros((0, len(Q)), bool)
-        x = np.asarray(Q)[:, self.cols]                          # (B, T, 2)
-        span = np.where(self.wrap, 2 * np.pi, 1.0)
-        x = np.where(self.wrap, (x - self.lo) % span + self.lo, x)
-        idx = np.rint((x - self.lo) / self.step).astype(np.int64)
-        idx = np.where(self.wrap, idx % self.n, np.minimum(np.maximum(idx, 0), self.n - 1))
-        dev = np.abs(x - (self.lo + idx * self.step))
-        dev = np.where(self.wrap, np.minimum(dev, 2 * np.pi - dev), dev)
-        flat = self.start + idx[..., 0] * self.n[:, 1] + idx[..., 1]
-        return (self.dist[flat] > (self.rate * dev).sum(-1)).T
 
 
 #: grid spacing aims at this much slack per coordinate (m); tables have at most TABLE_CELLS cells

@@ -255,12 +255,6 @@ class CollisionWorld:
                        ).astype(np.int64)
         cut = 0 if ends else 1
         lens = n + 1 - 2 * cut
-        if len(n) == 1:                            # one motion (OMPL's): the same numbers
-            j = np.arange(cut, n[0] + 1 - cut, dtype=float)
-            frac = j * (1.0 / n[0])
-            if not cut:
-                frac[-1] = 1.0
-            return A[0] + frac[:, None] * d[0], lens
         row = np.repeat(np.arange(len(n)), lens)
         first = np.cumsum(lens) - lens
         j = (np.arange(len(row)) - first[row] + cut).astype(float)

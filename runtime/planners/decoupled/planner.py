@@ -175,8 +175,8 @@ class DecoupledPlanner:
                      overrides: dict | None = None) -> "DecoupledPlanner":
         """The registry's factory: ``motion_planner``, ``motion_budget``, ``samples`` and
         ``simplify`` from the command line (``motion_budget``, ``samples``, ``min_steps``,
-        ``max_steps`` also from the run configuration's [planner]). E850 for an unknown motion planner, E851 for
-        a value out of range."""
+        ``max_steps`` also from the run configuration's [planner]). E850 for an unknown motion
+        planner, E851 for a value out of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
