@@ -15,6 +15,7 @@ from typing import Any, Iterable, Iterator, NoReturn
 from tmpc.lang.diagnostics import Diagnostic, Related, SceneError, error, not_utf8, warning
 from tmpc.lang.jsonpos import JsonDoc, parse_json, pointer
 from tmpc.lang.source import SourceFile, Span
+from tmpc.lang.world.rotations import unit_quat
 from tmpc.lang.world.scene import Origin, Pose, Quat, Scene
 
 #: |norm - 1| allowed for a quaternion (it is normalised) and for R Rᵀ - I of a rotation matrix
@@ -275,7 +276,7 @@ class JsonReader(Reader):
                       f"{fmt_num(norm)}, not 1 (tolerance {ROTATION_TOLERANCE:g})",
                       "a rotation is a unit quaternion in x, y, z, w order; no rotation is "
                       "[0, 0, 0, 1], a quarter turn about z is [0, 0, 0.7071068, 0.7071068]")
-        return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
+        return unit_quat(q)
 
     def pose(self, ptr: str, value: Any, rotation_required: bool) -> Pose:
         req = ("translation", "rotation") if rotation_required else ("translation",)

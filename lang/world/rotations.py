@@ -11,6 +11,7 @@ in the last bit for about one matrix in ten; the kernels' version is branch-free
 from __future__ import annotations
 
 import math
+import sys
 from typing import Sequence
 
 from tmpc.lang.world.scene import Box, Quat, Vec3
@@ -34,7 +35,25 @@ def quat_from_matrix(r: Sequence[Sequence[float]]) -> Quat:
         q = ((r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, s / 4, (r[1][0] - r[0][1]) / s)
     if q[3] < 0:          # a canonical sign: w >= 0
         q = (-q[0], -q[1], -q[2], -q[3])
-    n = math.sqrt(sum(c * c for c in q))
+    return unit_quat(q)
+
+
+#: |q·q - 1| within which a quaternion counts as unit already (:func:`unit_quat`)
+UNIT_SLACK = 4 * sys.float_info.epsilon
+
+
+def unit_quat(q: Sequence[float]) -> Quat:
+    """``q`` / |q|, or ``q`` itself when it is unit to within rounding (q·q within
+    :data:`UNIT_SLACK` of 1). Dividing a unit quaternion by its norm again can change its last
+    bits; kept as it is, a quaternion normalised once, written into an artifact and read back
+    is the same quaternion, so a problem planned from its artifact (``tmpc bench``'s workers)
+    and from its sources (``tmpc run``) is the same problem to the bit, and a seed gives the
+    same plan through either (the projector amplifies a last bit into another plan)."""
+    q = tuple(float(c) for c in q)
+    s = sum(c * c for c in q)
+    if abs(s - 1.0) <= UNIT_SLACK:
+        return (q[0], q[1], q[2], q[3])
+    n = math.sqrt(s)
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
@@ -58,7 +77,7 @@ def orthonormality_error(r: Sequence[Sequence[float]]) -> tuple[float, float]:
     return dev, det
 
 
-__all__ = ["matrix_from_quat", "orthonormality_error", "quat_from_matrix"]
+__all__ = ["matrix_from_quat", "orthonormality_error", "quat_from_matrix", "unit_quat"]
 
 
 def box_to_object_frame(q: Quat, lower: Vec3, upper: Vec3) -> tuple[Box, bool]:
