@@ -74,8 +74,13 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
                        "docs/planning.md)"),
     "park_idle": (bool, "the decoupled planner puts the arm a step does not use back where "
                         "the run started it (default false; docs/planning.md)"),
-    "motion_budget": (float, "seconds the decoupled planner gives each motion (default 2; "
-                             "`tmpc run --motion-budget` overrides it; docs/planning.md)"),
+    "motion_checks": (int, "tmpc's checks the decoupled planner's OMPL planner gets per "
+                           "motion (default 4000; `tmpc run --motion-checks` overrides it; "
+                           "docs/planning.md)"),
+    "motion_budget": (float, "seconds per motion: tmpc's lazy PRM's budget (default 2) and a "
+                             "wall-clock ceiling on OMPL's planners besides `motion_checks` "
+                             "(default none; `tmpc run --motion-budget` overrides it; "
+                             "docs/planning.md)"),
     "motion_range": (float, "the longest edge (Euclidean over the configuration's "
                             "coordinates) OMPL's motion planner grows its trees by in the "
                             "decoupled planner (default 0: OMPL's own, a fifth of the space's "

@@ -442,9 +442,13 @@ def _ompl_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--motion-planner", default=None, metavar="NAME",
                    help=f"decoupled: each motion's planner (default {DEFAULT_MOTION_PLANNER}): "
                    + ", ".join(MOTION_PLANNERS))
+    p.add_argument("--motion-checks", type=POSITIVE_INT, default=None, metavar="N",
+                   help="decoupled: tmpc's checks an OMPL planner gets per motion before the "
+                   "next transition sample (default 4000; a count, so runs do not depend on "
+                   "the machine's speed)")
     p.add_argument("--motion-budget", type=SECONDS, default=None, metavar="S",
-                   help="decoupled: seconds per motion before the next transition sample "
-                   "(default 2)")
+                   help="decoupled: seconds per motion (tmpc's lazy PRM: default 2; OMPL's "
+                   "planners: a wall-clock ceiling besides --motion-checks, none by default)")
     p.add_argument("--simplify", choices=SIMPLIFIERS, default=None,
                    help="what shortens the final plan's motions: tmpc (default: the planner's "
                    "own shortcuts and refinement) or ompl (then OMPL's PathSimplifier, each "

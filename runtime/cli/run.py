@@ -151,6 +151,7 @@ def planner_overrides(args) -> dict:
             "until_converged": flag("until_converged"),
             "motion_planner": getattr(args, "motion_planner", None),
             "motion_budget": getattr(args, "motion_budget", None),
+            "motion_checks": getattr(args, "motion_checks", None),
             "simplify": getattr(args, "simplify", None)}
 
 

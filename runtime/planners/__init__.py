@@ -72,8 +72,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                             "simplify")),
     "decoupled": PlannerSpec(_decoupled, "the classical baseline: SAT task plans, projected "
                              "transitions, each motion by an OMPL planner (--motion-planner), "
-                             "backtracking", ("motion_planner", "motion_budget", "samples",
-                                              "task_planner", "simplify")),
+                             "backtracking", ("motion_planner", "motion_budget", "motion_checks",
+                                              "samples", "task_planner", "simplify")),
 }
 
 

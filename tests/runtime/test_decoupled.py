@@ -313,27 +313,72 @@ def test_lazy_motions_come_from_the_manifest():
 
 
 def test_the_motion_budget_comes_from_the_manifest_and_the_command_line_wins():
-    """A manifest's ``[planner] motion_budget`` (Sort Clutter's 1 s) is each motion's budget;
-    ``--motion-budget`` overrides it; 2 s without either; 0 is E851."""
+    """A manifest's ``[planner] motion_checks`` (Sort Clutter's 2,500) and ``motion_budget``
+    (seconds) are each motion's budget; ``--motion-checks`` and ``--motion-budget`` override
+    them; 4,000 checks and no seconds without either; 0 is E851."""
     from tmpc.runtime.planners.decoupled.planner import DecoupledPlanner
 
     class World:
-        config = type("Config", (), {"params": (("motion_budget", 1.0),)})()
+        config = type("Config", (), {"params": (("motion_budget", 1.0),
+                                                ("motion_checks", 2500))})()
 
     class Problem:
         world = World()
 
-    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_budget == 1.0
-    over = {"motion_budget": 3.0}
-    assert DecoupledPlanner.from_options(Problem(), 0, over).opt.motion_budget == 3.0
-    assert DecoupledPlanner.from_options(Problem(), 0, {"motion_budget": None}).opt \
-        .motion_budget == 1.0
+    opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
+    assert (opt.motion_budget, opt.motion_checks) == (1.0, 2500)
+    over = {"motion_budget": 3.0, "motion_checks": 7}
+    opt = DecoupledPlanner.from_options(Problem(), 0, over).opt
+    assert (opt.motion_budget, opt.motion_checks) == (3.0, 7)
+    opt = DecoupledPlanner.from_options(Problem(), 0, {"motion_budget": None,
+                                                       "motion_checks": None}).opt
+    assert (opt.motion_budget, opt.motion_checks) == (1.0, 2500)
     Problem.world.config = type("Config", (), {"params": ()})()
-    assert DecoupledPlanner.from_options(Problem(), 0, {}).opt.motion_budget == 2.0
-    Problem.world.config = type("Config", (), {"params": (("motion_budget", 0.0),)})()
-    with pytest.raises(InputError) as err:
-        DecoupledPlanner.from_options(Problem(), 0, {})
-    assert err.value.diagnostics[0].code == "E851"
+    opt = DecoupledPlanner.from_options(Problem(), 0, {}).opt
+    assert (opt.motion_budget, opt.motion_checks) == (None, 4000)
+    for bad in (("motion_budget", 0.0), ("motion_checks", 0)):
+        Problem.world.config = type("Config", (), {"params": (bad,)})()
+        with pytest.raises(InputError) as err:
+            DecoupledPlanner.from_options(Problem(), 0, {})
+        assert err.value.diagnostics[0].code == "E851"
+
+
+def test_a_motion_budget_counts_checks_so_a_slow_machine_plans_the_same_motion(tabletop_run,
+                                                                              monkeypatch):
+    """An OMPL motion within ``checks`` of tmpc's checks (no seconds): the same path with the
+    checker ten times slower (the machine loaded), and the budget kept to within one of
+    OMPL's iterations; a budget too small to find it fails after its checks, not its time."""
+    from tmpc.runtime.planners import plan_motion
+    from tmpc.runtime.planners.decoupled.motion import ompl_space
+
+    problem, _ = tabletop_run
+    mode = problem.initial
+    q0, q1 = _colliding_pair(problem, mode, 11)
+    space = ompl_space(problem)
+    before = space.checks
+    res = plan_motion(problem, mode, q0, q1, "ompl:RRTConnect", np.inf, 4, space,
+                      checks=4000)
+    used = space.checks - before
+    assert res.path is not None and 0 < used < 4000
+    valid, motions = problem.valid_batch, problem.motions_valid
+
+    def slow(f):
+        def call(*a, **k):
+            time.sleep(2e-3)
+            return f(*a, **k)
+        return call
+    monkeypatch.setattr(problem, "valid_batch", slow(valid))
+    monkeypatch.setattr(problem, "motions_valid", slow(motions))
+    before = space.checks
+    again = plan_motion(problem, mode, q0, q1, "ompl:RRTConnect", np.inf, 4, space,
+                        checks=4000)
+    assert again.seconds > res.seconds and space.checks - before == used
+    assert np.array_equal(again.path, res.path)
+    monkeypatch.undo()
+    before = space.checks
+    short = plan_motion(problem, mode, q0, q1, "ompl:RRTConnect", np.inf, 4, space,
+                        checks=3)
+    assert short.path is None and 3 <= space.checks - before < 3 + 40
 
 
 def test_the_motion_range_comes_from_the_manifest_and_reaches_ompls_planner(tabletop_run,
@@ -690,7 +735,7 @@ def test_park_first_moves_the_idle_arm_alone_then_the_rest(blocks_d):
     calls = []
     real_plan = planner.plan
 
-    def plan(mode, x, y, budget, seed, fixed=None):
+    def plan(mode, x, y, budget, seed, fixed=None):     # budget: one Budget, shared
         calls.append((x, y, real_plan(mode, x, y, budget, seed, fixed)))
         return calls[-1][2]
     planner.plan = plan

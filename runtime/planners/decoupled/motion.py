@@ -64,12 +64,14 @@ def ompl_space(problem: PlanningProblem, resolution: float = 0.05) -> MotionSpac
 def plan_motion(problem: PlanningProblem, mode: Mode, q0: np.ndarray, q1: np.ndarray,
                 planner: str = "ompl:RRTConnect", time_limit: float = 10.0, seed: int = 0,
                 space: MotionSpace | None = None, resolution: float = 0.05,
-                fixed: np.ndarray | None = None) -> MotionResult:
+                fixed: np.ndarray | None = None, checks: int | None = None) -> MotionResult:
     """A collision-free path q0 -> q1 in ``mode`` within ``time_limit`` seconds (both ends
     exact, every segment valid by tmpc's motion checker) with ``planner`` (``ompl:NAME`` or
-    ``tmpc``); deterministic from ``seed``. ``space``: an OMPL space of ``problem`` to reuse.
-    ``fixed``: a mask of joints ``q0`` and ``q1`` share that an OMPL planner holds there
-    (it plans in the others alone; tmpc's planner plans in all)."""
+    ``tmpc``); deterministic from ``seed``, and for an OMPL planner given ``checks`` (at most
+    that many of tmpc's checks: :meth:`MotionSpace.plan`) whatever the machine's speed.
+    ``space``: an OMPL space of ``problem`` to reuse. ``fixed``: a mask of joints ``q0`` and
+    ``q1`` share that an OMPL planner holds there (it plans in the others alone; tmpc's
+    planner plans in all)."""
     check_motion_planner(planner)
     q0, q1 = np.asarray(q0, float), np.asarray(q1, float)
     t = time.perf_counter()
@@ -84,7 +86,8 @@ def plan_motion(problem: PlanningProblem, mode: Mode, q0: np.ndarray, q1: np.nda
     else:
         space = space or ompl_space(problem, resolution)
         space.mode = mode
-        Q, status = space.plan(q0, q1, planner.split(":", 1)[1], time_limit, seed, fixed)
+        Q, status = space.plan(q0, q1, planner.split(":", 1)[1], time_limit, seed, fixed,
+                               checks)
     seconds = round(time.perf_counter() - t, 4)
     return MotionResult(Q, status, seconds, None if Q is None else path_cost(problem, Q),
                         planner)

@@ -14,7 +14,7 @@ of wider and uniform starts while none is valid; the joints the action does not 
 the other arm, back where the run started them with ``park_idle``, a manifest's,
 :meth:`DecoupledPlanner.idle_joints`;
 collision-free in the current mode; nearest first), and the motion to each is planned
-(``motion_planner``, ``motion_budget`` seconds) until one succeeds; the step's successor
+(``motion_planner``, ``motion_checks`` of tmpc's checks) until one succeeds; the step's successor
 mode is then derived at that configuration. A step none of whose samples can be reached sends
 the search back to the previous step's next sample (with ``backjump``, a manifest's: of the
 latest step that moved an object its failures depend on, :meth:`DecoupledPlanner.culprits`);
@@ -63,12 +63,24 @@ BLAME_CHECKS = 4
 SEED_POOL = 32
 #: a seed start's noise, per joint, a share of the joint's range
 SEED_NOISE = 0.02
+#: seconds per motion of tmpc's own motion planner (``motion_planner = "tmpc"``) when no
+#: ``motion_budget`` is given
+LAZY_PRM_SECONDS = 2.0
 
 
 @dataclass(frozen=True)
 class DecoupledOptions:
     motion_planner: str = DEFAULT_MOTION_PLANNER
-    motion_budget: float = 2.0         # seconds per motion
+    #: an OMPL planner's budget per motion in tmpc's checks (its state and motion checks,
+    #: :attr:`~tmpc.runtime.planners.decoupled.space.MotionSpace.checks`; a manifest's
+    #: ``[planner]``): a count, not seconds, so the same seed gives the same plan on any
+    #: machine under any load (docs/planning.md, "The motion budget"). 4,000 were about 2 s
+    #: of Blocks World E's motions
+    motion_checks: int = 4000
+    #: seconds per motion: tmpc's lazy PRM's budget (None: :data:`LAZY_PRM_SECONDS`), and
+    #: for OMPL's planners a wall-clock ceiling besides their checks (None: none but the
+    #: run's time limit; given, a run depends on the machine's speed again)
+    motion_budget: float | None = None
     samples: int = 4                   # transition configurations tried per step
     plan_budget: int = 40              # motions tried per task plan before the next one,
     plan_budget_per_step: int = 3      # ... or this many per step of a longer plan
@@ -173,10 +185,11 @@ class DecoupledPlanner:
     @classmethod
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
                      overrides: dict | None = None) -> "DecoupledPlanner":
-        """The registry's factory: ``motion_planner``, ``motion_budget``, ``samples`` and
-        ``simplify`` from the command line (``motion_budget``, ``samples``, ``min_steps``,
-        ``max_steps`` also from the run configuration's [planner]). E850 for an unknown motion
-        planner, E851 for a value out of range."""
+        """The registry's factory: ``motion_planner``, ``motion_budget``, ``motion_checks``,
+        ``samples`` and ``simplify`` from the command line (``motion_budget``,
+        ``motion_checks``, ``samples``, ``min_steps``, ``max_steps`` also from the run
+        configuration's [planner]). E850 for an unknown motion planner, E851 for a value out
+        of range."""
         config = problem.world.config
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
@@ -184,8 +197,10 @@ class DecoupledPlanner:
         opts = DecoupledOptions(
             motion_planner=check_motion_planner(str(over.get("motion_planner",
                                                              base.motion_planner))),
-            motion_budget=float(over.get("motion_budget",
-                                         params.get("motion_budget", base.motion_budget))),
+            motion_budget=_seconds(over.get("motion_budget",
+                                            params.get("motion_budget", base.motion_budget))),
+            motion_checks=int(over.get("motion_checks",
+                                       params.get("motion_checks", base.motion_checks))),
             samples=int(over.get("samples", params.get("samples", base.samples))),
             shortcut=over.get("simplify", "tmpc") != "ompl",
             min_steps=int(params.get("min_steps", base.min_steps)),
@@ -205,14 +220,16 @@ class DecoupledPlanner:
         if opts.task_planner not in TASK_PLANNERS:
             raise InputError(error("E851", f"task planner {opts.task_planner!r} is unknown",
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
-        if not (opts.motion_budget > 0 and opts.samples >= 1 and opts.motion_range >= 0
+        if not ((opts.motion_budget is None or opts.motion_budget > 0)
+                and opts.motion_checks >= 1 and opts.samples >= 1 and opts.motion_range >= 0
                 and 0 <= opts.seed_starts <= PROJECTION_BATCH // 2):
             raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget}, "
-                                   f"samples {opts.samples}, motion range "
-                                   f"{opts.motion_range} or seed_starts {opts.seed_starts} "
-                                   "out of range", None,
-                                   "the motion budget is > 0 seconds, samples >= 1, the "
-                                   f"motion range >= 0, seed_starts 0..{PROJECTION_BATCH // 2}"))
+                                   f"motion checks {opts.motion_checks}, samples "
+                                   f"{opts.samples}, motion range {opts.motion_range} or "
+                                   f"seed_starts {opts.seed_starts} out of range", None,
+                                   "the motion budget is > 0 seconds, motion checks >= 1, "
+                                   "samples >= 1, the motion range >= 0, seed_starts "
+                                   f"0..{PROJECTION_BATCH // 2}"))
         return cls(problem, seed, opts)
 
     def warm_up_calls(self) -> list:
@@ -663,8 +680,10 @@ class DecoupledPlanner:
         if np.abs(self.p.difference(q1, q0)).max() <= 1e-12:
             return q0[None].copy()          # an action without geometry: no motion
         t = time.perf_counter()
-        budget = min(self.opt.motion_budget, deadline - t)
-        if budget <= 0:
+        seconds = self.opt.motion_budget if self.opt.motion_budget is not None else \
+            (LAZY_PRM_SECONDS if self.space is None else math.inf)
+        budget = Budget(min(seconds, deadline - t), self.space, self.opt.motion_checks)
+        if not budget.left():
             return None
         k = self.counts["motions"]
         self.counts["motions"] += 1
@@ -677,30 +696,28 @@ class DecoupledPlanner:
             idle = self.idle[after.id]
             first = self.plan(mode, a, mid, budget, motion_seed(self.seed, k), ~idle)
             if first is not None:
-                left = budget - (time.perf_counter() - t)
-                rest = self.plan(mode, mid, b, left, motion_seed(self.seed, k) + 1, idle) \
-                    if left > 0 else None
+                rest = self.plan(mode, mid, b, budget, motion_seed(self.seed, k) + 1, idle) \
+                    if budget.left() else None
                 if rest is None:
                     self.counts["motion_failures"] += 1
                     return None
                 path = np.vstack([first, rest[1:]])
                 self.counts["parked_first"] = self.counts.get("parked_first", 0) + 1
-            budget -= time.perf_counter() - t
         if path is None:
             path = self.plan(mode, a, b, budget, motion_seed(self.seed, k)) \
-                if budget > 0 else None
+                if budget.left() else None
         if path is None:
             self.counts["motion_failures"] += 1
             return None
         return np.vstack([q0[None], *(x[None] for x in out), path,
                           *(x[None] for x in back[::-1]), q1[None]])
 
-    def plan(self, mode: Mode, a: np.ndarray, b: np.ndarray, budget: float,
+    def plan(self, mode: Mode, a: np.ndarray, b: np.ndarray, budget: Budget,
              seed: int, fixed: np.ndarray | None = None) -> np.ndarray | None:
-        """One call of the motion planner, a -> b within ``budget`` seconds, the joints of
-        the mask ``fixed`` held: the path or None."""
-        res = plan_motion(self.p, mode, a, b, self.opt.motion_planner, budget, seed,
-                          self.space, self.opt.resolution, fixed)
+        """One call of the motion planner, a -> b within what is left of ``budget``, the
+        joints of the mask ``fixed`` held: the path or None."""
+        res = plan_motion(self.p, mode, a, b, self.opt.motion_planner, budget.seconds_left(),
+                          seed, self.space, self.opt.resolution, fixed, budget.checks_left())
         self.motion_seconds += res.seconds
         return res.path
 
@@ -742,3 +759,30 @@ class DecoupledPlanner:
                                 self.opt.retreat_steps, self.opt.retreat_step,
                                 self.opt.resolution, self.opt.retreat_sideways)
         return best_retreat(c0), best_retreat(c1)
+
+
+class Budget:
+    """One motion's budget, shared by its motion plans: ``seconds`` of wall clock (``inf``:
+    none) and, with an OMPL ``space``, ``checks`` of its checks
+    (:attr:`~tmpc.runtime.planners.decoupled.space.MotionSpace.checks`), both counted from
+    now."""
+
+    def __init__(self, seconds: float, space, checks: int):
+        self.end = time.perf_counter() + seconds
+        self.space = space
+        self.last = None if space is None else space.checks + int(checks)
+
+    def seconds_left(self) -> float:
+        return self.end - time.perf_counter()
+
+    def checks_left(self) -> int | None:
+        return None if self.space is None else self.last - self.space.checks
+
+    def left(self) -> bool:
+        checks = self.checks_left()
+        return self.seconds_left() > 0 and (checks is None or checks > 0)
+
+
+def _seconds(value) -> float | None:
+    """A motion budget's seconds: None stays None (no budget given)."""
+    return None if value is None else float(value)

@@ -14,7 +14,9 @@ segment by segment (:meth:`MotionSpace.path_valid`).
 OMPL's random numbers are seeded per motion (``ompl.util.RNG.setSeed``, before the planner
 and its samplers are made), so a motion is a function of its seed for the planners that stop
 at their first solution; the optimizing ones are told that any solution satisfies them (a cost
-threshold of infinity), so they stop there too.
+threshold of infinity), so they stop there too. A motion's budget is counted in tmpc's checks
+(:attr:`MotionSpace.checks`, OMPL's state and motion checks), not in seconds, so whether it
+is found does not depend on the machine's speed or load either (:meth:`MotionSpace.plan`).
 """
 
 from __future__ import annotations
@@ -120,6 +122,12 @@ class MotionSpace:
         return path
 
     # ---- tmpc's checks ------------------------------------------------------------------------
+    @property
+    def checks(self) -> int:
+        """OMPL's calls of tmpc's checks so far, states and motions alike: the unit of a
+        motion's budget (:meth:`plan`)."""
+        return self.counts["ompl_states_checked"] + self.counts["ompl_motions_checked"]
+
     def valid(self, q: np.ndarray) -> bool:
         self.counts["ompl_states_checked"] += 1
         return bool(self.p.valid_batch(self.mode, np.asarray(q, float)[None])[0])
@@ -159,15 +167,19 @@ class MotionSpace:
         self.si.setup()
 
     def plan(self, q0: np.ndarray, q1: np.ndarray, name: str, budget: float,
-             seed: int, fixed: np.ndarray | None = None) -> tuple[np.ndarray | None, str]:
+             seed: int, fixed: np.ndarray | None = None,
+             checks: int | None = None) -> tuple[np.ndarray | None, str]:
         """A path q0 -> q1 (k, n), both ends exact and every segment valid by tmpc, from OMPL's
-        planner ``name`` (a class of ``ompl.geometric``) within ``budget`` seconds; (None,
-        OMPL's status) when it found none. ``fixed``: a mask of joints the path holds where
-        ``q0`` has them (``q1`` has them there too): OMPL plans in the others alone."""
+        planner ``name`` (a class of ``ompl.geometric``) within ``budget`` seconds and, when
+        given, ``checks`` of tmpc's checks (:attr:`checks`); (None, OMPL's status) when it
+        found none. Within its checks a motion is a function of its seed (OMPL's planners
+        heed the budget between iterations); ``budget`` may be ``inf``. ``fixed``: a mask of
+        joints the path holds where ``q0`` has them (``q1`` has them there too): OMPL plans
+        in the others alone."""
         if fixed is not None and fixed.any():
             self.bound(fixed, q0)
             try:
-                Q, status = self.plan(q0, q1, name, budget, seed)
+                Q, status = self.plan(q0, q1, name, budget, seed, checks=checks)
             finally:
                 self.bound()
             if Q is not None:
@@ -184,7 +196,7 @@ class MotionSpace:
         if self.range > 0 and hasattr(planner, "setRange"):
             planner.setRange(float(self.range))
         setup.setPlanner(planner)
-        status = setup.solve(float(budget))
+        status = setup.solve(self.termination(budget, checks))
         if not setup.haveExactSolutionPath():
             return None, str(status)
         Q = self.path_array(setup.getSolutionPath())
@@ -192,6 +204,17 @@ class MotionSpace:
         if not self.path_valid(Q):
             return None, "invalid path"
         return Q, "exact"
+
+    def termination(self, budget: float, checks: int | None = None):
+        """OMPL's termination condition of a plan: ``budget`` seconds gone, or ``checks`` more
+        of tmpc's checks made (None: seconds alone)."""
+        ob, _, _ = ompl_modules()
+        if checks is None:
+            return ob.timedPlannerTerminationCondition(float(budget))
+        end = self.checks + int(checks)
+        stop = time.perf_counter() + float(budget)
+        return ob.PlannerTerminationCondition(
+            lambda: self.checks >= end or time.perf_counter() >= stop)
 
     def simplify(self, Q: np.ndarray, budget: float, seed: int) -> np.ndarray:
         """OMPL's ``PathSimplifier`` on the path ``Q`` (k, n) within ``budget`` seconds; the
