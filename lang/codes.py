@@ -366,8 +366,8 @@ _TABLE = (
     # OMPL inside tmpc: the decoupled planner, `tmpc motion`, `--simplify ompl` (issue Q)
     Code("E850", ERROR, "an unknown motion planner (`--motion-planner`, `tmpc motion "
                         "--planner`): not `tmpc` or an `ompl:NAME` tmpc lists"),
-    Code("E851", ERROR, "`--planner decoupled`: a motion budget, a number of motion checks or "
-         "of transition samples out of range"),
+    Code("E851", ERROR, "`--planner decoupled`: a motion budget, a number of motion checks "
+                        "or of transition samples out of range"),
     Code("E852", ERROR, "`tmpc motion`: `--from`/`--to`/`--mode` neither `start`, `random` nor a"
                         " state file"),
     Code("E853", ERROR, "`tmpc motion`: an end state in collision or outside the joint limits"),
