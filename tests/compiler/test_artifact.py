@@ -67,6 +67,20 @@ def test_artifact_carries_the_robots_srdf(artifact, tabletop_world):
     assert a.check(s0.q, poses=s0.poses, attached=s0.held).valid
 
 
+def test_the_artifacts_scene_is_the_sources_to_the_bit(artifact, tabletop_world):
+    """Every pose, grasp and support of the artifact's scene equals the sources' exactly: a
+    problem planned from its artifact (``tmpc bench``'s workers) and from its sources
+    (``tmpc run``) must be the same problem, or one seed gives two plans."""
+    from tmpc.compiler.artifact import open_world
+    world = open_world(artifact)
+    a = {o.name: o for o in world.scene.objects}
+    b = {o.name: o for o in tabletop_world.scene.objects}
+    assert a.keys() == b.keys()
+    for name in a:
+        assert (a[name].pose, a[name].support, a[name].grasps, a[name].stable_poses) == \
+            (b[name].pose, b[name].support, b[name].grasps, b[name].stable_poses), name
+
+
 def test_manifest_and_members(artifact):
     with zipfile.ZipFile(artifact) as z:
         manifest = json.loads(z.read("manifest.json"))
