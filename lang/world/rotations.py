@@ -52,7 +52,7 @@ def unit_quat(q: Sequence[float]) -> Quat:
     q = tuple(float(c) for c in q)
     s = sum(c * c for c in q)
     if abs(s - 1.0) <= UNIT_SLACK:
-        return (q[0], q[1], q[2], q[3])
+        return q
     n = math.sqrt(s)
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 

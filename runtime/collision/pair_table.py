@@ -171,7 +171,6 @@ class PairTables:
         return out
 
 
-
 #: grid spacing aims at this much slack per coordinate (m); tables have at most TABLE_CELLS cells
 TABLE_SLACK = 0.004
 TABLE_CELLS = 4096

@@ -194,11 +194,11 @@ class DecoupledPlanner:
         params = dict(config.params) if config is not None else {}
         over = {k: v for k, v in (overrides or {}).items() if v is not None}
         base = DecoupledOptions()
+        budget = over.get("motion_budget", params.get("motion_budget", base.motion_budget))
         opts = DecoupledOptions(
             motion_planner=check_motion_planner(str(over.get("motion_planner",
                                                              base.motion_planner))),
-            motion_budget=_seconds(over.get("motion_budget",
-                                            params.get("motion_budget", base.motion_budget))),
+            motion_budget=None if budget is None else float(budget),
             motion_checks=int(over.get("motion_checks",
                                        params.get("motion_checks", base.motion_checks))),
             samples=int(over.get("samples", params.get("samples", base.samples))),
@@ -781,8 +781,3 @@ class Budget:
     def left(self) -> bool:
         checks = self.checks_left()
         return self.seconds_left() > 0 and (checks is None or checks > 0)
-
-
-def _seconds(value) -> float | None:
-    """A motion budget's seconds: None stays None (no budget given)."""
-    return None if value is None else float(value)
