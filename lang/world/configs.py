@@ -94,6 +94,9 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "park_first": (bool, "with park_idle, the decoupled planner moves the arm a step does "
                          "not use to where the run started it first, alone, then the rest "
                          "(default false; docs/planning.md)"),
+    "spread_placements": (bool, "the decoupled planner tries a release's configurations "
+                                "where the object has the most room beside it first, and more "
+                                "aimed that way (default false; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

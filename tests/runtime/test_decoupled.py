@@ -756,3 +756,50 @@ def test_park_first_moves_the_idle_arm_alone_then_the_rest(blocks_d):
     hand = p.model.frames.index("l_gripper_tool_frame")
     ends = p.frames_of(tail[[0, -1]])
     assert np.linalg.norm(ends[0].p[hand] - ends[1].p[hand]) > 1e-3
+
+
+def test_spread_placements_tries_the_roomiest_release_first(blocks_d):
+    """With ``spread_placements`` (a manifest's, off by default) a release's configurations
+    come the roomiest first (the released block's sideways distance to the blocks beside it;
+    the table it stands on left out), the aimed starts move the block the way its room grows,
+    and moving a block towards another shrinks its room."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    from tmpc.runtime.planners.spread import AIM, GRAIN
+    from tmpc.runtime.problem import Mode
+
+    p = blocks_d
+    gp = p.ground
+    assert DecoupledPlanner(p, seed=0).room is None
+    planner = DecoupledPlanner(p, seed=0, options=DecoupledOptions(spread_placements=True))
+    room = planner.room
+    pick = gp.find_action("pickup", "a", "table", "l_gripper_tool_frame")
+    sym = gp.apply(gp.init, pick)
+    q = planner.transition_samples(p.initial, pick, p.q0,
+                                   planner.tasks.transition(gp.init, pick, sym))[0]
+    held = p.successor_mode(p.initial, pick, q, 1)
+    put = gp.find_action("putdown", "a", "table", "l_gripper_tool_frame")
+    assert room.released(p.initial, pick) == [] and room.released(held, put) == ["a"]
+    tr = planner.tasks.transition(held.sym, put, gp.apply(held.sym, put))
+    out = planner.transition_samples(held, put, q, tr)
+    assert len(out) >= 2
+    rooms = room.rooms(held, put, np.array(out))
+    assert np.all(np.diff(np.floor(rooms / GRAIN)) <= 0)
+    # the table under the block is no neighbour; the other blocks are
+    T = room.poses(held, "a", np.array(out[:1]))
+
+    def alone(*names):
+        return Mode(0, held.sym, {k: held.poses[k] for k in names}, {})
+
+    assert room.room_at(alone("table"), "a", T) is None
+    beside = {k: room.room_at(alone("table", k), "a", T) for k in held.poses if k != "table"}
+    near = min((k for k, r in beside.items() if r is not None), key=lambda k: beside[k][0])
+    toward = T.copy()
+    toward[0, :2, 3] += 0.3 * (held.poses[near][:2, 3] - T[0, :2, 3])
+    assert room.room_at(held, "a", toward)[0] < room.room_at(held, "a", T)[0]
+    # aimed starts: the block about AIM further, where it has more room
+    A = room.aimed(held, put, np.array(out[:4]))
+    TA = room.poses(held, "a", A)
+    T4 = room.poses(held, "a", np.array(out[:4]))
+    moved = np.linalg.norm(TA[:, :2, 3] - T4[:, :2, 3], axis=1)
+    assert np.all(np.abs(moved - AIM) < 0.5 * AIM)
+    assert np.all(room.room_at(held, "a", TA) > room.room_at(held, "a", T4))

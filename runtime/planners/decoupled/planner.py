@@ -25,9 +25,10 @@ With ``lazy_motions`` (a manifest's) the motions wait until every step has a con
 object tries first the configurations after which the plan's next step on that object holds
 (:meth:`DecoupledPlanner.looking_ahead`); with ``retreat_sideways`` a motion's ends retreat by
 the hand that acts there, and with ``park_first`` the arm a step does not use goes back to its
-place first, alone (:meth:`DecoupledPlanner.motion`). When no task plan is left (the
-exclusions and blockers were learnt from a few samples per step, not proofs), task planning
-starts afresh with new samples, until the time limit. A goal with geometric literals is one
+place first, alone (:meth:`DecoupledPlanner.motion`); with ``spread_placements`` a release's
+configurations go the roomiest first (:mod:`tmpc.runtime.planners.spread`). When no task
+plan is left (the exclusions and blockers were learnt from a few samples per step, not
+proofs), task planning starts afresh with new samples, until the time limit. A goal with geometric literals is one
 more step (the goal's projection). The final plan's motions are shortcut by tmpc
 (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time limit) unless
 ``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead). Deterministic from
@@ -52,6 +53,7 @@ from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
 from tmpc.runtime.planners.optimal.options import TASK_PLANNERS
 from tmpc.runtime.planners.optimal.tasks import TaskPlans
 from tmpc.runtime.planners.retreat import best_retreat, hand_frames, retreat_chains
+from tmpc.runtime.planners.spread import Room
 from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
 
 
@@ -137,6 +139,9 @@ class DecoupledOptions:
     #: against 273.2 s; off by default: Blocks G with the three left v3 unplanned in 300 s
     #: (docs/planning.md)
     park_first: bool = False
+    #: a release's configurations the roomiest first, and more aimed the way the room grows
+    #: (:mod:`tmpc.runtime.planners.spread`); a manifest's
+    spread_placements: bool = False
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -181,6 +186,8 @@ class DecoupledPlanner:
         self.moves: dict = {}
         self.pool: dict[bytes, list[np.ndarray]] = {}
         self._carried: list[frozenset] | None = None
+        #: with ``spread_placements``, the room of a release's configurations
+        self.room = Room(problem) if options.spread_placements else None
 
     @classmethod
     def from_options(cls, problem: PlanningProblem, seed: int = 0,
@@ -215,6 +222,8 @@ class DecoupledPlanner:
             seed_starts=int(params.get("seed_starts", base.seed_starts)),
             retreat_sideways=params.get("retreat_sideways", base.retreat_sideways) is True,
             park_first=params.get("park_first", base.park_first) is True,
+            spread_placements=params.get("spread_placements",
+                                         base.spread_placements) is True,
             projection_iterations=int(params.get("projection_iterations",
                                                  base.projection_iterations)))
         if opts.task_planner not in TASK_PLANNERS:
@@ -602,12 +611,19 @@ class DecoupledPlanner:
                         self.collided_now.append(np.array(qp))
             if out:
                 break
+        if self.room is not None and action is not None and self.room.released(mode, action):
+            out += self.room.around(mode, action, Qp[holds])
         if out and self.opt.seed_starts:
             pool = self.pool.setdefault(self.moves[key].tobytes(), [])
             pool += [x.copy() for x in out]
             del pool[:-SEED_POOL]
         if out:                              # the nearest first: shorter motions
-            out = [out[i] for i in np.argsort(p.cost(np.array(out), q), kind="stable")]
+            cost = p.cost(np.array(out), q)
+            if self.room is not None and action is not None:
+                order = self.room.order(mode, action, np.array(out), cost)
+            else:
+                order = np.argsort(cost, kind="stable")
+            out = [out[i] for i in order]
         return out[:keep or self.opt.samples]
 
     def seeded(self, key, starts: np.ndarray) -> None:
