@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from tmpc.compiler.robot import homogeneous
-from tmpc.runtime.collision.exact import aabbs
+from tmpc.runtime.collision import aabbs
 
 #: objects closer than this at every candidate touch it (its support): left out (m)
 TOUCH = 1e-3

@@ -26,10 +26,11 @@ object tries first the configurations after which the plan's next step on that o
 (:meth:`DecoupledPlanner.looking_ahead`); with ``retreat_sideways`` a motion's ends retreat by
 the hand that acts there, and with ``park_first`` the arm a step does not use goes back to its
 place first, alone (:meth:`DecoupledPlanner.motion`); with ``spread_placements`` a release's
-configurations go the roomiest first (:mod:`tmpc.runtime.planners.spread`). When no task
-plan is left (the exclusions and blockers were learnt from a few samples per step, not
-proofs), task planning starts afresh with new samples, until the time limit. A goal with geometric literals is one
-more step (the goal's projection). The final plan's motions are shortcut by tmpc
+configurations go the roomiest first, with more aimed where the room grows
+(:mod:`tmpc.runtime.planners.spread`). When no task plan is left (the exclusions and blockers
+were learnt from a few samples per step, not proofs), task planning starts afresh with new
+samples, until the time limit. A goal with geometric literals is one more step (the goal's
+projection). The final plan's motions are shortcut by tmpc
 (:func:`~tmpc.runtime.planners.decoupled.lazyprm.shortcut`, until the time limit) unless
 ``simplify`` is ``ompl`` (OMPL's simplifier then runs on them instead). Deterministic from
 the seed: numpy's generator for the samples, OMPL's seeded per motion.
