@@ -64,8 +64,11 @@ for x in "EH":
 # ten variations each, twenty-fifth session): Blocks E median 19.6 s against 17.5 s side by
 # side, mean 22.3 s against 33.6 s, max 35.2 s against 89.0 s (v0's and v7's failed motions
 # 7 and 0 against 21 and 28); Sort Clutter median 8.6 s, mean 11.6 s, max 24.0 s against its
-# row's 9.7 s, 13.0 s and 30.1 s. Not measured on Blocks F-J: left off there
-for x in ("blocks-E", "clutter"):
+# row's 9.7 s, 13.0 s and 30.1 s; the full kitchen 21.5 s, 29.9 s, 60.8 s against 26.4 s,
+# 43.1 s, 110.5 s; without radishes 5.2 s, 6.7 s, 13.3 s against 7.0 s, 7.2 s, 9.7 s. Blocks F
+# (with lookahead) slower with it: v2 129.1 s against 55.2 s, v3 71.3 s against 29.2 s; left
+# off there and on G-J
+for x in ("blocks-E", "clutter", "kitchen", "kitchen-noradish"):
     PLANNER[x] = PLANNER[x] + ['spread_placements = true']
 
 def instances() -> dict[str, tuple]:
