@@ -65,11 +65,14 @@ for x in "EH":
 # side, mean 22.3 s against 33.6 s, max 35.2 s against 89.0 s (v0's and v7's failed motions
 # 7 and 0 against 21 and 28); Sort Clutter median 8.6 s, mean 11.6 s, max 24.0 s against its
 # row's 9.7 s, 13.0 s and 30.1 s; the full kitchen 21.5 s, 29.9 s, 60.8 s against 26.4 s,
-# 43.1 s, 110.5 s; without radishes 5.2 s, 6.7 s, 13.3 s against 7.0 s, 7.2 s, 9.7 s. Blocks F
-# (with lookahead) slower with it: v2 129.1 s against 55.2 s, v3 71.3 s against 29.2 s; left
-# off there and on G-J
+# 43.1 s, 110.5 s; without radishes 5.1 s, 6.7 s, 13.3 s against 7.0 s, 7.2 s, 9.7 s
 for x in ("blocks-E", "clutter", "kitchen", "kitchen-noradish"):
     PLANNER[x] = PLANNER[x] + ['spread_placements = true']
+# Blocks F (with lookahead) with the order alone: median 38.9 s, mean 46.6 s, max 89.8 s against
+# its row's 46.8 s, 55.2 s, 135.0 s; with the aimed configurations too, seven variations: median
+# 70.2 s (v2 129.1 s against 55.2 s). Blocks G with both: v4 196.4 s against 65.2 s; stopped,
+# G-J leave it off
+PLANNER["blocks-F"] = PLANNER["blocks-F"] + ['spread_placements = true', 'aim_placements = false']
 
 def instances() -> dict[str, tuple]:
     out: dict[str, tuple] = {}

@@ -97,6 +97,9 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "spread_placements": (bool, "the decoupled planner tries a release's configurations "
                                 "where the object has the most room beside it first, and more "
                                 "aimed that way (default false; docs/planning.md)"),
+    "aim_placements": (bool, "with spread_placements, the decoupled planner projects a "
+                             "release's configurations from starts aimed the way the room "
+                             "grows too (default true; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

@@ -803,3 +803,12 @@ def test_spread_placements_tries_the_roomiest_release_first(blocks_d):
     moved = np.linalg.norm(TA[:, :2, 3] - T4[:, :2, 3], axis=1)
     assert np.all(np.abs(moved - AIM) < 0.5 * AIM)
     assert np.all(room.room_at(held, "a", TA) > room.room_at(held, "a", T4))
+    # the aimed configurations are added unless ``aim_placements`` is false
+    for aim in (True, False):
+        other = DecoupledPlanner(p, seed=0, options=DecoupledOptions(spread_placements=True,
+                                                                     aim_placements=aim))
+        calls = []
+        real = other.room.around
+        other.room.around = lambda *a, real=real: calls.append(a) or real(*a)
+        other.transition_samples(held, put, q, tr)
+        assert bool(calls) is aim
