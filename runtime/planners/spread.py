@@ -43,15 +43,13 @@ class Room:
     def __init__(self, problem):
         self.p = problem
         self._boxes: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._parts = problem.collision.parts
-        self._model = problem.model
 
     def boxes(self, name: str):
         """(local transforms (G, 4, 4), box centres (G, 3), half extents (G, 3)) of an object's
         geometries in its frame."""
         if name not in self._boxes:
             b = self.p.collision.object_body(name)
-            gs = [g for g in self._parts.geoms if g.body == b]
+            gs = [g for g in self.p.collision.parts.geoms if g.body == b]
             self._boxes[name] = (np.array([g.T_body_geom for g in gs]).reshape(-1, 4, 4),
                                  np.array([g.aabb_center for g in gs]).reshape(-1, 3),
                                  np.array([g.aabb_half for g in gs]).reshape(-1, 3))
@@ -70,7 +68,7 @@ class Room:
     def poses(self, mode, obj: str, Q: np.ndarray) -> np.ndarray:
         """World poses (k, 4, 4) of ``obj``, held in ``mode``, at configurations Q (k, n)."""
         frame, T_frame_obj = mode.held[obj]
-        f = self._model.frame(frame)
+        f = self.p.model.frame(frame)
         frames = self.p.frames_of(np.asarray(Q, float))
         return np.array([homogeneous(fr)[f] @ T_frame_obj for fr in frames]).reshape(-1, 4, 4)
 

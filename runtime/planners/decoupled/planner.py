@@ -617,19 +617,17 @@ class DecoupledPlanner:
                         self.collided_now.append(np.array(qp))
             if out:
                 break
-        if self.room is not None and self.opt.aim_placements and action is not None and \
-                self.room.released(mode, action):
-            out += self.room.around(mode, action, Qp[holds])
+        if self.room is not None and self.opt.aim_placements and action is not None:
+            out += self.room.around(mode, action, Qp[holds])     # [] if it releases nothing
         if out and self.opt.seed_starts:
             pool = self.pool.setdefault(self.moves[key].tobytes(), [])
             pool += [x.copy() for x in out]
             del pool[:-SEED_POOL]
         if out:                              # the nearest first: shorter motions
-            cost = p.cost(np.array(out), q)
-            if self.room is not None and action is not None:
-                order = self.room.order(mode, action, np.array(out), cost)
-            else:
-                order = np.argsort(cost, kind="stable")
+            X = np.array(out)
+            cost = p.cost(X, q)
+            order = self.room.order(mode, action, X, cost) \
+                if self.room is not None and action is not None else np.argsort(cost, kind="stable")
             out = [out[i] for i in order]
         return out[:keep or self.opt.samples]
 
