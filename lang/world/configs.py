@@ -100,6 +100,15 @@ PLANNER_PARAMS: dict[str, tuple[type, str]] = {
     "aim_placements": (bool, "with spread_placements, the decoupled planner projects a "
                              "release's configurations from starts aimed the way the room "
                              "grows too (default true; docs/planning.md)"),
+    "give_up_missed": (bool, "with backjump, the decoupled planner ends a task plan at a step "
+                             "out of the arm's reach whatever the steps before it did "
+                             "(default false; docs/planning.md)"),
+    "probe_reach": (bool, "the decoupled planner, after a grasp out of reach, probes the same "
+                          "grasp of every object not moved yet where it stands (default "
+                          "false; docs/planning.md)"),
+    "chain_retry": (float, "with lazy_motions, a failed motion of the decoupled planner's "
+                           "chain whose transitions all hold is planned once more on this "
+                           "multiple of the motion budget (default 1: off; docs/planning.md)"),
     "lua_instructions": (int, "Lua VM instructions one predicate call may run (default "
                               "10,000,000)"),
     "lua_seconds": (float, "CPU seconds one Lua predicate call may take (default 10)"),

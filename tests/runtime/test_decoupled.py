@@ -812,3 +812,136 @@ def test_spread_placements_tries_the_roomiest_release_first(blocks_d):
         other.room.around = lambda *a, real=real: calls.append(a) or real(*a)
         other.transition_samples(held, put, q, tr)
         assert bool(calls) is aim
+
+
+def test_a_step_out_of_reach_with_no_culprit_ends_the_plan(tabletop_run):
+    """With ``give_up_missed`` (and ``backjump``), a step whose configurations are exhausted,
+    with no culprit, whose transition never held and came no closer than a real miss, is
+    sampled again until it failed RULE_FAILURES times, and then the plan ends: no earlier
+    step's other configurations can bring it within reach. Without the option, or when the
+    attempts came close, the search goes back to the step before."""
+    import math
+
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    from tmpc.runtime.planners.optimal.tasks import MISS, RULE_FAILURES
+    problem, _ = tabletop_run
+
+    def follow(options, distance):
+        planner = DecoupledPlanner(problem, seed=0, options=options)
+        steps = _plan_steps(planner)
+        last = steps[3][0]
+        calls: list[int] = []
+        real = planner.transition_samples
+
+        def sampling(mode, action, q, tr, keep=None):
+            calls.append(next(i for i, (a, _) in enumerate(steps) if a is action))
+            if action is last:                 # 48 attempts a visit, none held
+                for _ in range(48):
+                    tr.record_failure(mode, q, False, distance)
+                planner.collided_now = []
+                return []
+            return real(mode, action, q, tr, keep)
+
+        planner.transition_samples = sampling
+        planner.culprits = lambda steps, i, mode, moved, collided: set()
+        assert planner.follow(steps, math.inf) is None
+        return planner, calls, steps[3][1]
+
+    far = 5 * MISS
+    planner, calls, tr = follow(DecoupledOptions(backjump=True, give_up_missed=True), far)
+    assert calls == [0, 1, 2, 3, 3] and tr.failures == RULE_FAILURES
+    assert planner.counts["missed_ends"] == 1 and tr.missed
+    # without the option: back to the step before, each of its configurations again
+    _, plain, _ = follow(DecoupledOptions(backjump=True), far)
+    assert plain.count(2) > 1 and plain.count(3) > 2
+    # close attempts are no miss: more configurations of the steps before may get there
+    near, calls_near, tr_near = follow(DecoupledOptions(backjump=True, give_up_missed=True),
+                                       MISS / 2)
+    assert not tr_near.missed and calls_near == plain and "missed_ends" not in near.counts
+
+
+def _grasp_action(p, hand: str, x: str):
+    """A ground action of ``p`` whose only positive geometric literal is the grasp of ``x``
+    by ``hand``."""
+    for a in p.ground.actions:
+        geo = [lit for lit in a.pre_geometric if lit.positive]
+        if len(geo) == 1 and geo[0].predicate == "grasp" and \
+                [s.lower() for s in geo[0].args] == [hand, x]:
+            return a, geo[0]
+    raise AssertionError(f"no grasp of {x} by {hand}")
+
+
+def test_a_grasp_out_of_reach_probes_the_same_grasp_of_the_objects_not_moved(blocks_d):
+    """With ``probe_reach``, a grasp that never held and missed (the right arm and `d`, on
+    the left of Blocks World D's PR2) has the same grasp of each other block probed where it
+    stands: a miss there too rules it out until the block moves (the greedy task planner's
+    rule). Checked against 400 projections per block: ruled out are exactly the blocks the
+    right arm misses from 400 starts (`b`, under `d`), not those it reaches (`a`, `c`);
+    blocks the plan moved are not probed."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    from tmpc.runtime.planners.optimal.tasks import MISS, RULE_FAILURES
+    p, r = blocks_d, "r_gripper_tool_frame"
+
+    def missed(x: str) -> bool:
+        action, _ = _grasp_action(p, r, x)
+        _, holds, dist = p.project_raw(p.initial, action,
+                                       p.uniform(np.random.default_rng(5), 400))
+        return not holds.any() and dist.min() >= MISS
+
+    def probe(prefix):
+        planner = DecoupledPlanner(p, seed=0, options=DecoupledOptions(probe_reach=True))
+        tasks = planner.tasks
+        action, lit = _grasp_action(p, r, "d")
+        tr = tasks.transition(p.ground.init, action, p.ground.apply(p.ground.init, action))
+        Q, holds, dist = p.project_raw(p.initial, action,
+                                       p.uniform(np.random.default_rng(0), RULE_FAILURES))
+        assert not holds.any() and dist.min() >= MISS     # the right arm misses `d`
+        for q, d in zip(Q, dist):
+            tr.record_failure(p.initial, q, False, float(d))
+        assert tr.missed
+        tasks.probe_alike(prefix, tr, lit)
+        rules = tasks.task_planner().greedy.rules
+        return {x for x in "abc" if rules.get(("grasp", (r, x), True))}, planner.counts
+
+    ruled, counts = probe([])
+    assert ruled == {x for x in "abc" if missed(x)} == {"b"}
+    assert counts["probes"] == 3 and counts["probe_rules"] == 1
+    # `a` moved by the plan so far: not probed (where it stands now is another question)
+    move_a = p.ground.find_action("pickup", "a", "blue-tray", "l_gripper_tool_frame")
+    ruled, counts = probe([move_a])
+    assert ruled == {"b"} and counts["probes"] == 2
+
+
+def test_a_failed_motion_of_a_whole_chain_is_planned_again_on_a_larger_budget(tabletop_run):
+    """With ``lazy_motions`` and ``chain_retry``, a motion of a chain whose transitions all
+    hold that fails is planned once more, on ``chain_retry`` times the motion budget (its
+    checks), before the search backtracks; the plan validates. Without it (1, the default)
+    the chain is cut there (the lazy-motions test above)."""
+    from tmpc.runtime.planners.decoupled.planner import DecoupledOptions, DecoupledPlanner
+    problem, _ = tabletop_run
+    opts = DecoupledOptions(lazy_motions=True, chain_retry=4.0)
+    planner = DecoupledPlanner(problem, seed=0, options=opts)
+    scales: list[float] = []
+    checks: list[int] = []
+    motion, plan = planner.motion, planner.plan
+
+    def moving(mode, q0, q1, deadline, before=None, after=None, scale=1.0):
+        scales.append(scale)
+        if len(scales) == 2:                  # the second motion fails on its own budget
+            return None
+        return motion(mode, q0, q1, deadline, before, after, scale)
+
+    def planning(mode, a, b, budget, seed, fixed=None):
+        checks.append(budget.checks_left())
+        return plan(mode, a, b, budget, seed, fixed)
+
+    planner.motion, planner.plan = moving, planning
+    result = planner.solve(60.0)
+    assert result.status == "solved" and planner.counts["chain_retries"] == 1
+    steps = len([a for _, _, a in result.path if a is not None])
+    assert scales == [1.0, 1.0, 4.0] + [1.0] * (steps - 2)
+    # the retry's motion plans had four times the checks of the others
+    assert max(checks) > 3 * opts.motion_checks >= 3 * min(checks)
+    _, report = _validate(problem, result, "decoupled")
+    assert report.valid, report.text()
+    assert DecoupledOptions().chain_retry == 1.0

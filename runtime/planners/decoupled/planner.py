@@ -52,7 +52,7 @@ from tmpc.runtime.planners.decoupled.motion import (check_motion_planner, mode_s
 from tmpc.runtime.planners.decoupled.space import motion_seed, path_cost
 from tmpc.runtime.planners.optimal import OptimalOptions, OptimalResult
 from tmpc.runtime.planners.optimal.options import TASK_PLANNERS
-from tmpc.runtime.planners.optimal.tasks import TaskPlans
+from tmpc.runtime.planners.optimal.tasks import RULE_FAILURES, TaskPlans
 from tmpc.runtime.planners.retreat import best_retreat, hand_frames, retreat_chains
 from tmpc.runtime.planners.spread import Room
 from tmpc.runtime.problem import PROJECTION_BATCH, Mode, PlanningProblem
@@ -147,6 +147,20 @@ class DecoupledOptions:
     #: grows (:meth:`~tmpc.runtime.planners.spread.Room.around`); a manifest's, on by default
     #: (Blocks F: median 38.9 s without them, 70.2 s with them on seven variations)
     aim_placements: bool = True
+    #: with ``backjump``, a plan ends at a step whose configurations are exhausted with no
+    #: culprit when its transition never held anywhere and came no closer than a real miss
+    #: (:attr:`~tmpc.runtime.planners.optimal.tasks.Transition.missed`: out of the arm's
+    #: reach), once it has failed enough for a rule (:meth:`DecoupledPlanner.follow`;
+    #: tmpc's; a manifest's ``[planner]``)
+    give_up_missed: bool = False
+    #: a grasp out of reach has the same grasp of every object not moved yet probed where it
+    #: stands (:attr:`~tmpc.runtime.planners.optimal.OptimalOptions.probe_reach`; tmpc's; a
+    #: manifest's ``[planner]``)
+    probe_reach: bool = False
+    #: with ``lazy_motions``, a motion of a chain whose transitions all hold that fails is
+    #: planned once more on this multiple of the motion budget before the search backtracks
+    #: (:meth:`DecoupledPlanner.chain_motions`; tmpc's; a manifest's ``[planner]``; 1: off)
+    chain_retry: float = 1.0
     min_steps: int = 0
     max_steps: int = 100
     task_planner: str = "auto"         # as the optimal planner's (OptimalOptions.task_planner)
@@ -172,7 +186,8 @@ class DecoupledPlanner:
         self.tasks = TaskPlans(problem, OptimalOptions(min_steps=options.min_steps,
                                                        max_steps=options.max_steps,
                                                        first_solution=True,
-                                                       task_planner=options.task_planner),
+                                                       task_planner=options.task_planner,
+                                                       probe_reach=options.probe_reach),
                                self.counts)
         self.space = None
         self.hands: list[int] | None = None
@@ -230,6 +245,9 @@ class DecoupledPlanner:
             spread_placements=params.get("spread_placements",
                                          base.spread_placements) is True,
             aim_placements=params.get("aim_placements", base.aim_placements) is True,
+            give_up_missed=params.get("give_up_missed", base.give_up_missed) is True,
+            probe_reach=params.get("probe_reach", base.probe_reach) is True,
+            chain_retry=float(params.get("chain_retry", base.chain_retry)),
             projection_iterations=int(params.get("projection_iterations",
                                                  base.projection_iterations)))
         if opts.task_planner not in TASK_PLANNERS:
@@ -237,14 +255,16 @@ class DecoupledPlanner:
                                    None, f"one of {', '.join(TASK_PLANNERS)}"))
         if not ((opts.motion_budget is None or opts.motion_budget > 0)
                 and opts.motion_checks >= 1 and opts.samples >= 1 and opts.motion_range >= 0
+                and opts.chain_retry >= 1
                 and 0 <= opts.seed_starts <= PROJECTION_BATCH // 2):
             raise InputError(error("E851", f"decoupled: motion budget {opts.motion_budget}, "
                                    f"motion checks {opts.motion_checks}, samples "
-                                   f"{opts.samples}, motion range {opts.motion_range} or "
-                                   f"seed_starts {opts.seed_starts} out of range", None,
+                                   f"{opts.samples}, motion range {opts.motion_range}, "
+                                   f"seed_starts {opts.seed_starts} or chain_retry "
+                                   f"{opts.chain_retry} out of range", None,
                                    "the motion budget is > 0 seconds, motion checks >= 1, "
                                    "samples >= 1, the motion range >= 0, seed_starts "
-                                   f"0..{PROJECTION_BATCH // 2}"))
+                                   f"0..{PROJECTION_BATCH // 2}, chain_retry >= 1"))
         return cls(problem, seed, opts)
 
     def warm_up_calls(self) -> list:
@@ -370,6 +390,16 @@ class DecoupledPlanner:
                 back = depth - 1
                 if jump and depth > 0:
                     found = conflicts[-1] - {depth}
+                    if not found and self.opt.give_up_missed and tr.action is not None \
+                            and tr.missed:
+                        # out of reach wherever the steps before put things: no other
+                        # configuration of theirs helps. Sampled again until it failed
+                        # enough for the task planner's rule, then the plan ends
+                        if tr.failures < RULE_FAILURES:
+                            stack[-1][4] = None
+                            continue
+                        self.counts["missed_ends"] = self.counts.get("missed_ends", 0) + 1
+                        return None
                     if not found:            # no culprit: back to the step before
                         self.counts["no_culprit"] = self.counts.get("no_culprit", 0) + 1
                     else:
@@ -455,6 +485,12 @@ class DecoupledPlanner:
             if stack[i][3] is None:
                 motion = self.motion(stack[i - 1][1], stack[i - 1][0], stack[i][0], deadline,
                                      stack[i - 1][2], stack[i][2])
+                if motion is None and self.opt.chain_retry > 1:
+                    # a whole plan's transitions hang on it: once more, on a larger budget
+                    self.counts["chain_retries"] = self.counts.get("chain_retries", 0) + 1
+                    motion = self.motion(stack[i - 1][1], stack[i - 1][0], stack[i][0],
+                                         deadline, stack[i - 1][2], stack[i][2],
+                                         scale=self.opt.chain_retry)
                 if motion is None:
                     return i
                 stack[i][3] = motion
@@ -686,10 +722,10 @@ class DecoupledPlanner:
         return self._carried
 
     def motion(self, mode: Mode, q0: np.ndarray, q1: np.ndarray, deadline: float,
-               before=None, after=None) -> np.ndarray | None:
+               before=None, after=None, scale: float = 1.0) -> np.ndarray | None:
         """The motion q0 -> q1 in ``mode`` as the motion planner returns it, or None.
         ``before``: the action that happened at ``q0``; ``after``: the one at ``q1`` (None:
-        the start, the goal or unknown).
+        the start, the goal or unknown); ``scale``: the motion budget's multiple.
 
         With ``park_first`` (and ``park_idle``), a motion whose end puts the arm ``after``
         does not use back where the run started it moves that arm there first, alone, and
@@ -703,7 +739,8 @@ class DecoupledPlanner:
         t = time.perf_counter()
         seconds = self.opt.motion_budget if self.opt.motion_budget is not None else \
             (LAZY_PRM_SECONDS if self.space is None else math.inf)
-        budget = Budget(min(seconds, deadline - t), self.space, self.opt.motion_checks)
+        budget = Budget(min(seconds * scale, deadline - t), self.space,
+                        round(self.opt.motion_checks * scale))
         if not budget.left():
             return None
         k = self.counts["motions"]

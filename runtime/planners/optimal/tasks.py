@@ -176,6 +176,8 @@ class TaskPlans:
         #: the places an unreached action's anchors were tried at, per (action id, support
         #: chain), over every symbolic state the chain holds in (:meth:`anchor_rules`)
         self.reach_places: dict[tuple[int, tuple[int, ...]], set] = {}
+        #: the literals :meth:`probe_alike` projected, ``(predicate, args)``
+        self._probed: set[tuple] = set()
 
     def task_planner(self) -> TaskPlanner:
         """The task planner ``task_planner`` names (``auto``: the SAT-or-greedy portfolio to a
@@ -342,6 +344,8 @@ class TaskPlans:
             elif unreached and (tp.add_action_rule(prefix, tr.action, anchors) if placement
                                 else anchors and tp.add_evidence(prefix, lit, False, anchors)):
                 self.counts["anchors"] = self.counts.get("anchors", 0) + 1
+            if self.opt.probe_reach and tr.missed and not placement and anchors:
+                self.probe_alike(prefix, tr, lit)
             if fixed and placement and anchors:
                 chain = self.support_chain(tr.sym, anchors)
                 # what the chain stands on cannot move while it holds: not a mover
@@ -357,6 +361,49 @@ class TaskPlans:
             elif fixed and placement and tp.add_action_rule(prefix, tr.action, movers):
                 # on a fixed support: nothing the plan moves changes it but the movers
                 self.counts["fixed_rules"] = self.counts.get("fixed_rules", 0) + 1
+
+    def probe_alike(self, prefix: list, tr: Transition, lit) -> None:
+        """``probe_reach``: ``tr``'s grasp literal ``lit`` never held and missed by a real
+        miss, so the same literal of every other movable object (the same predicate, the same
+        arguments but that object) that ``prefix`` did not move and the robot does not hold
+        is projected where it stands, in the mode of ``tr``'s closest attempt:
+        :data:`RULE_FAILURES` starts (that attempt's configuration and uniform ones), the
+        first ground action with that literal as its only positive geometric one. Missed
+        there too (none held, none within :data:`MISS`), it is false until the object moves
+        (the anchor rule its own failures would teach, whatever came before). Each literal
+        is probed once a run. Blocks World: the arm on the other side misses every block of
+        a tower, and each cost a task plan to learn."""
+        tp = self.task_planner()
+        _, mode, q = tr.best_fail
+        movable = tp.movable
+        held = {h.lower() for h in (mode.held or {})}
+        moved = tp.moved(prefix)
+        own = [i for i, a in enumerate(lit.args) if a.lower() in movable]
+        if len(own) != 1:
+            return
+        k = own[0]
+        for action in self.p.ground.actions:
+            geo = [g for g in action.pre_geometric if g.positive]
+            if len(geo) != 1 or not self.p.has_geometry(action):
+                continue
+            other = geo[0]
+            y = other.args[k].lower() if len(other.args) == len(lit.args) else None
+            if other.predicate != lit.predicate or y is None or y == lit.args[k].lower() or \
+                    y not in movable or y in moved or y in held or \
+                    any(a != b for i, (a, b) in enumerate(zip(other.args, lit.args)) if i != k):
+                continue
+            key = (other.predicate, tuple(other.args))
+            if key in self._probed:
+                continue
+            self._probed.add(key)
+            rng = np.random.default_rng([action.id, 7])
+            starts = np.vstack([np.asarray(q, float)[None],
+                                self.p.uniform(rng, RULE_FAILURES - 1)])
+            _, holds, dist = self.p.project_raw(mode, action, starts)
+            self.counts["probes"] = self.counts.get("probes", 0) + 1
+            if not holds.any() and float(dist.min()) >= MISS and \
+                    tp.add_evidence(prefix, other, False, [y]):
+                self.counts["probe_rules"] = self.counts.get("probe_rules", 0) + 1
 
     @staticmethod
     def fixed_only(hits: list) -> bool:
