@@ -365,8 +365,9 @@ class TaskPlans:
     def probe_alike(self, prefix: list, tr: Transition, lit) -> None:
         """``probe_reach``: ``tr``'s grasp literal ``lit`` never held and missed by a real
         miss, so the same literal of every other movable object (the same predicate, the same
-        arguments but that object) that ``prefix`` did not move and the robot does not hold
-        is projected where it stands, in the mode of ``tr``'s closest attempt:
+        arguments but that object) that ``prefix`` did not move, the robot does not hold and
+        that stands where it started in the mode of ``tr``'s closest attempt is projected
+        there:
         :data:`RULE_FAILURES` starts (that attempt's configuration and uniform ones), the
         first ground action with that literal as its only positive geometric one. Missed
         there too (none held, none within :data:`MISS`), it is false until the object moves
@@ -378,6 +379,10 @@ class TaskPlans:
         movable = tp.movable
         held = {h.lower() for h in (mode.held or {})}
         moved = tp.moved(prefix)
+        # where the objects stand in that mode and at the start (the attempt may be another
+        # plan's, which moved them and put them back on the same support)
+        now = {k.lower(): T for k, T in mode.poses.items()}
+        first = {k.lower(): T for k, T in self.p.initial.poses.items()}
         own = [i for i, a in enumerate(lit.args) if a.lower() in movable]
         if len(own) != 1:
             return
@@ -390,7 +395,9 @@ class TaskPlans:
             y = other.args[k].lower() if len(other.args) == len(lit.args) else None
             if other.predicate != lit.predicate or y is None or y == lit.args[k].lower() or \
                     y not in movable or y in moved or y in held or \
-                    any(a != b for i, (a, b) in enumerate(zip(other.args, lit.args)) if i != k):
+                    any(a != b for i, (a, b) in enumerate(zip(other.args, lit.args)) if i != k) \
+                    or y not in now or y not in first or \
+                    not np.array_equal(np.asarray(now[y]), np.asarray(first[y])):
                 continue
             key = (other.predicate, tuple(other.args))
             if key in self._probed:
