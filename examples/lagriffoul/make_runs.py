@@ -77,10 +77,12 @@ PLANNER["blocks-F"] = PLANNER["blocks-F"] + ['spread_placements = true', 'aim_pl
 # blocks not moved yet is probed at once, and a failed motion of a whole chain is planned once
 # more on 4 times the budget (give_up_missed, probe_reach, chain_retry; ten variations,
 # twenty-sixth session): Blocks E median 16.8 s, mean 17.7 s, max 25.4 s against its row's
-# 19.6 s, 22.3 s, 35.2 s. Blocks F: 42.8 s, 52.1 s, 149.5 s against 38.9 s, 46.7 s, 89.8 s
-# (without chain_retry 37.7 s, 69.7 s, 171.6 s): F leaves them off
+# 19.6 s, 22.3 s, 35.2 s; Blocks G 68.0 s, 67.9 s, 102.6 s against 91.6 s, 101.0 s, 193.6 s;
+# Blocks H 80.4 s, 98.7 s, 248.0 s against 162.0 s, 173.0 s, 237.1 s. Blocks F: 42.8 s,
+# 52.1 s, 149.5 s against 38.9 s, 46.7 s, 89.8 s (without chain_retry 37.7 s, 69.7 s,
+# 171.6 s): F leaves them off
 REACH = ['give_up_missed = true', 'probe_reach = true', 'chain_retry = 4']
-for x in "E":
+for x in "EGH":
     PLANNER[f"blocks-{x}"] = PLANNER[f"blocks-{x}"] + REACH
 
 def instances() -> dict[str, tuple]:
