@@ -77,7 +77,7 @@ PLANNER["blocks-F"] = PLANNER["blocks-F"] + ['spread_placements = true', 'aim_pl
 # variations, twenty-sixth session): 10/10, median 3.1 s, mean 16.5 s, max 57.0 s, against the
 # optimal planner's 9/10 and 64.5 s; six of ten plan from their first task plan in 2-4 s. The
 # back peg's grasp needs the discs at the edges of their slack (docs/benchmarks-log.md,
-# "Hanoi's geometry"), which the roomiest release gives. Hanoi 4: v0 not planned in 300 s
+# "Hanoi's geometry"), which the roomiest release gives. Hanoi 4: v0, v1 not planned in 300 s
 PLANNER["hanoi-3"] = PLANNER["blocks-E"][:4] + ['spread_placements = true']
 # a plan ends at a step out of the arm's reach once its rule is learnt, the same grasp of the
 # blocks not moved yet is probed at once, and a failed motion of a whole chain is planned once
