@@ -86,9 +86,10 @@ class OptimalOptions:
     #: search of at most 4 times its expansions finds a shorter one (tmpc's; 0: off). Blocks
     #: World E's greedy plans had 24-28 steps where 16 do (docs/planning.md)
     task_weight: float = 2.0
-    #: a grasp never reached (a real miss, :attr:`~tmpc.runtime.planners.optimal.tasks.
-    #: Transition.missed`) has the same grasp of every other object not moved yet probed at
-    #: once: :data:`~tmpc.runtime.planners.optimal.tasks.RULE_FAILURES` projections where it
+    #: a grasp never reached (a real miss,
+    #: :attr:`~tmpc.runtime.planners.optimal.tasks.Transition.missed`) has the same grasp of
+    #: every other object not moved yet probed at once:
+    #: :data:`~tmpc.runtime.planners.optimal.tasks.RULE_FAILURES` projections where it
     #: stands, and a miss there too is ruled out until it moves
     #: (:meth:`~tmpc.runtime.planners.optimal.tasks.TaskPlans.probe_alike`; tmpc's; the
     #: decoupled planner's ``probe_reach``)
