@@ -483,14 +483,13 @@ class DecoupledPlanner:
         the first that fails, or None when all are planned."""
         for i in range(1, len(stack)):
             if stack[i][3] is None:
-                motion = self.motion(stack[i - 1][1], stack[i - 1][0], stack[i][0], deadline,
-                                     stack[i - 1][2], stack[i][2])
+                ends = (stack[i - 1][1], stack[i - 1][0], stack[i][0], deadline,
+                        stack[i - 1][2], stack[i][2])
+                motion = self.motion(*ends)
                 if motion is None and self.opt.chain_retry > 1:
                     # a whole plan's transitions hang on it: once more, on a larger budget
                     self.counts["chain_retries"] = self.counts.get("chain_retries", 0) + 1
-                    motion = self.motion(stack[i - 1][1], stack[i - 1][0], stack[i][0],
-                                         deadline, stack[i - 1][2], stack[i][2],
-                                         scale=self.opt.chain_retry)
+                    motion = self.motion(*ends, scale=self.opt.chain_retry)
                 if motion is None:
                     return i
                 stack[i][3] = motion
